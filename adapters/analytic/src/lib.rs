@@ -1,0 +1,1 @@
+//! Analytic geometry adapter (being written).

@@ -1,0 +1,1 @@
+//! Connection of bubble centres (placeholder; being written).

@@ -1,0 +1,159 @@
+//! The geometric queries the bubble method needs (thesis §5.1.4).
+//!
+//! These traits say *what* a geometry must answer, not how an adapter stores
+//! it. Every length is in model units (whatever the input file uses); every
+//! parameter is the adapter's own parameter, which need not be arc length.
+//!
+//! Invariants an implementation must keep:
+//! - evaluation at a parameter inside the interval/domain returns finite values;
+//! - derivatives are the exact derivatives of the point map (tests in the
+//!   adapters compare them with finite differences);
+//! - implementations are `Send + Sync` so the engine may evaluate from several
+//!   threads.
+
+use nalgebra::{Point3, Vector3};
+
+/// A point in model space.
+pub type P3 = Point3<f64>;
+/// A vector in model space.
+pub type V3 = Vector3<f64>;
+
+/// A parametric curve C(t), t in `interval()`.
+pub trait Curve: Send + Sync + std::fmt::Debug {
+    /// Parameter interval `[t0, t1]`, `t0 < t1`.
+    fn interval(&self) -> (f64, f64);
+    /// C(t).
+    fn point(&self, t: f64) -> P3;
+    /// C'(t) = dC/dt.
+    fn d1(&self, t: f64) -> V3;
+    /// C''(t) = d²C/dt².
+    fn d2(&self, t: f64) -> V3;
+    /// Whether C(t0) == C(t1) (a circle, a closed spline).
+    fn is_closed(&self) -> bool {
+        let (a, b) = self.interval();
+        let (pa, pb) = (self.point(a), self.point(b));
+        let scale = self.approx_length().max(f64::MIN_POSITIVE);
+        (pa - pb).norm() <= 1e-9 * scale
+    }
+    /// Arc length by Gauss–Legendre quadrature on 64 panels; adapters with a
+    /// closed form may override it.
+    fn approx_length(&self) -> f64 {
+        length_between(self, self.interval().0, self.interval().1)
+    }
+}
+
+/// Arc length of `c` between `a` and `b` (a ≤ b or a > b) by 5-point
+/// Gauss–Legendre quadrature on 64 panels.
+pub fn length_between<C: Curve + ?Sized>(c: &C, a: f64, b: f64) -> f64 {
+    const X: [f64; 5] = [
+        0.0,
+        -0.538_469_310_105_683_1,
+        0.538_469_310_105_683_1,
+        -0.906_179_845_938_664,
+        0.906_179_845_938_664,
+    ];
+    const W: [f64; 5] = [
+        0.568_888_888_888_888_9,
+        0.478_628_670_499_366_5,
+        0.478_628_670_499_366_5,
+        0.236_926_885_056_189_1,
+        0.236_926_885_056_189_1,
+    ];
+    let n = 64;
+    let h = (b - a) / n as f64;
+    let mut s = 0.0;
+    for k in 0..n {
+        let m = a + (k as f64 + 0.5) * h;
+        for (x, w) in X.iter().zip(W) {
+            s += w * c.d1(m + 0.5 * h * x).norm();
+        }
+    }
+    (s * 0.5 * h).abs()
+}
+
+/// Value and partial derivatives of a surface at one (u,v).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceDerivs {
+    pub p: P3,
+    pub su: V3,
+    pub sv: V3,
+    pub suu: V3,
+    pub suv: V3,
+    pub svv: V3,
+}
+
+/// A parametric surface S(u,v) over a rectangular parameter domain.
+///
+/// Trimming (which part of the domain a face uses) belongs to the face's
+/// boundary loops in the [`crate::model::Model`]; a surface may additionally
+/// answer in/out itself through [`Surface::trim`].
+pub trait Surface: Send + Sync + std::fmt::Debug {
+    /// `([u0, u1], [v0, v1])`.
+    fn domain(&self) -> ([f64; 2], [f64; 2]);
+    /// S(u,v).
+    fn point(&self, u: f64, v: f64) -> P3;
+    /// S and its first and second partials at (u,v).
+    fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs;
+    /// (u,v) of the point of the surface nearest to `p`, searched from `hint`
+    /// when given. `None` when the adapter cannot invert its map.
+    fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]>;
+    /// Whether the adapter itself knows that (u,v) is inside (`Some(true)`) or
+    /// outside (`Some(false)`) the trimmed region; `None` (the default) lets
+    /// the engine decide from the face's boundary loops.
+    fn trim(&self, _u: f64, _v: f64) -> Option<bool> {
+        None
+    }
+}
+
+/// A region of space bounded by faces. Volume meshing asks only in/out.
+pub trait VolumeGeometry: Send + Sync + std::fmt::Debug {
+    /// `Some(inside)` where the adapter can answer exactly; `None` lets the
+    /// engine decide from the watertight boundary mesh.
+    fn contains(&self, _p: &P3) -> Option<bool> {
+        None
+    }
+}
+
+/// The plane S(u,v) = origin + u·e1 + v·e2 with orthonormal e1, e2.
+///
+/// 2D domains use the plane z = 0 with (u,v) = (x,y).
+#[derive(Clone, Copy, Debug)]
+pub struct Plane {
+    pub origin: P3,
+    pub e1: V3,
+    pub e2: V3,
+}
+
+impl Plane {
+    /// The plane z = 0, (u,v) = (x,y).
+    pub fn xy() -> Self {
+        Plane {
+            origin: P3::origin(),
+            e1: V3::x(),
+            e2: V3::y(),
+        }
+    }
+}
+
+impl Surface for Plane {
+    fn domain(&self) -> ([f64; 2], [f64; 2]) {
+        ([f64::NEG_INFINITY, f64::INFINITY], [f64::NEG_INFINITY, f64::INFINITY])
+    }
+    fn point(&self, u: f64, v: f64) -> P3 {
+        self.origin + self.e1 * u + self.e2 * v
+    }
+    fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
+        SurfaceDerivs {
+            p: self.point(u, v),
+            su: self.e1,
+            sv: self.e2,
+            suu: V3::zeros(),
+            suv: V3::zeros(),
+            svv: V3::zeros(),
+        }
+    }
+    fn inverse(&self, p: &P3, _hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
+        let d = p - self.origin;
+        Some([d.dot(&self.e1), d.dot(&self.e2)])
+    }
+}

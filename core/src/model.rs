@@ -1,0 +1,160 @@
+//! A non-manifold boundary representation: vertices, edges, faces and volumes
+//! with stable ids, tied to geometry through the traits of [`crate::geom`].
+//!
+//! Ids are indices into the model's vectors (0-based) and never change once
+//! the model is built; every mesh node and element records the `(dim, id)` of
+//! the entity it came from (thesis Fig. 1.12b).
+
+use std::sync::Arc;
+
+use crate::geom::{Curve, Surface, VolumeGeometry, P3};
+
+/// The dimension and id of a model entity: 0 vertex, 1 edge, 2 face, 3 volume.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct EntityRef {
+    pub dim: u8,
+    pub id: u32,
+}
+
+impl EntityRef {
+    pub fn new(dim: u8, id: u32) -> Self {
+        EntityRef { dim, id }
+    }
+}
+
+impl std::fmt::Display for EntityRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let kind = ["vertex", "edge", "face", "volume"][self.dim.min(3) as usize];
+        write!(f, "{kind} {}", self.id)
+    }
+}
+
+/// A model vertex: a fixed point (a vertex bubble, thesis §3.2.3 step 1).
+#[derive(Clone, Debug)]
+pub struct Vertex {
+    pub point: P3,
+    pub name: Option<String>,
+}
+
+/// A model edge: the piece `[t0, t1]` of a curve from vertex `start` to
+/// vertex `end`. A closed edge has `start == end`.
+///
+/// Invariant: `curve.point(t0) == vertices[start].point` and
+/// `curve.point(t1) == vertices[end].point` to within the model tolerance.
+#[derive(Clone, Debug)]
+pub struct Edge {
+    pub curve: Arc<dyn Curve>,
+    pub t0: f64,
+    pub t1: f64,
+    pub start: u32,
+    pub end: u32,
+    pub name: Option<String>,
+}
+
+/// One use of an edge in a face loop.
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeUse {
+    pub edge: u32,
+    /// `true` when the loop runs from the edge's start to its end.
+    pub forward: bool,
+}
+
+/// A closed chain of edge uses bounding a face. Outer loops run
+/// counter-clockwise in (u,v), holes clockwise; the engine does not rely on
+/// this orientation (it classifies by winding number), but writers and
+/// adapters keep it.
+#[derive(Clone, Debug, Default)]
+pub struct Loop {
+    pub edges: Vec<EdgeUse>,
+}
+
+/// A model face: a trimmed region of a surface.
+#[derive(Clone, Debug)]
+pub struct Face {
+    pub surface: Arc<dyn Surface>,
+    /// Boundary loops: the first is the outer loop, the others holes.
+    pub loops: Vec<Loop>,
+    /// Constraint edges inside the face that the mesh must contain
+    /// (thesis Fig. 1.14).
+    pub embedded_edges: Vec<u32>,
+    /// Constraint points inside the face that the mesh must contain.
+    pub embedded_vertices: Vec<u32>,
+    pub name: Option<String>,
+}
+
+/// A model volume bounded by faces.
+#[derive(Clone, Debug)]
+pub struct Volume {
+    pub faces: Vec<u32>,
+    pub geometry: Option<Arc<dyn VolumeGeometry>>,
+    pub name: Option<String>,
+}
+
+/// The model handed to the engine.
+#[derive(Clone, Debug, Default)]
+pub struct Model {
+    pub vertices: Vec<Vertex>,
+    pub edges: Vec<Edge>,
+    pub faces: Vec<Face>,
+    pub volumes: Vec<Volume>,
+    /// Where the model came from (a file path), for error messages.
+    pub source: Option<String>,
+}
+
+impl Model {
+    /// The highest dimension with at least one entity (0 for an empty model).
+    pub fn dim(&self) -> u8 {
+        if !self.volumes.is_empty() {
+            3
+        } else if !self.faces.is_empty() {
+            2
+        } else if !self.edges.is_empty() {
+            1
+        } else {
+            0
+        }
+    }
+
+    /// A human name of an entity for messages: `face 2 ("plate")`.
+    pub fn describe(&self, e: EntityRef) -> String {
+        let name = match e.dim {
+            0 => self.vertices.get(e.id as usize).and_then(|v| v.name.clone()),
+            1 => self.edges.get(e.id as usize).and_then(|v| v.name.clone()),
+            2 => self.faces.get(e.id as usize).and_then(|v| v.name.clone()),
+            _ => self.volumes.get(e.id as usize).and_then(|v| v.name.clone()),
+        };
+        match name {
+            Some(n) => format!("{e} (\"{n}\")"),
+            None => e.to_string(),
+        }
+    }
+
+    /// Axis-aligned bounding box of the vertices and sampled edges.
+    pub fn bbox(&self) -> Option<(P3, P3)> {
+        let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        let mut any = false;
+        let mut add = |p: P3| {
+            any = true;
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        };
+        for v in &self.vertices {
+            add(v.point);
+        }
+        for e in &self.edges {
+            for k in 0..=32 {
+                let t = e.t0 + (e.t1 - e.t0) * k as f64 / 32.0;
+                add(e.curve.point(t));
+            }
+        }
+        any.then_some((lo, hi))
+    }
+
+    /// Length of the bounding-box diagonal (0 for an empty model).
+    pub fn size(&self) -> f64 {
+        self.bbox().map(|(a, b)| (b - a).norm()).unwrap_or(0.0)
+    }
+}

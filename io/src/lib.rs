@@ -1,0 +1,1 @@
+//! Mesh writers and readers (being written).
