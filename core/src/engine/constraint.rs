@@ -1,0 +1,111 @@
+//! Node constraints (thesis §4.5): bubbles on a face stay on its surface and
+//! inside its trimmed region.
+//!
+//! The thesis (eq. 4.5.2) maps an object-space displacement Δx to parameter
+//! space by projecting it on each tangent separately, Δu = Δx·S_u/|S_u|²,
+//! Δv = Δx·S_v/|S_v|², which is exact only when S_u ⟂ S_v. Here the tangent
+//! displacement is solved for exactly with the first fundamental form:
+//!
+//! [E F; F G] [Δu; Δv] = [Δx·S_u; Δx·S_v], E = S_u·S_u, F = S_u·S_v, G = S_v·S_v,
+//!
+//! and the new point is S(u + Δu, v + Δv), so the bubble is on the surface
+//! by construction.
+
+use crate::geom::{Surface, P3, V3};
+use crate::model::EntityRef;
+
+use super::region::Region;
+
+/// How bubbles of one entity move.
+pub trait Carrier: Sync {
+    /// The entity the bubbles belong to.
+    fn entity(&self) -> EntityRef;
+    /// Moves a bubble at `params` by the object-space displacement `dx`.
+    /// Returns the new point and parameters, or `None` when the move would
+    /// leave the entity (the bubble then stays where it is).
+    fn advance(&self, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])>;
+    /// Two orthonormal tangent directions at `params` (for angular gaps).
+    fn frame(&self, params: [f64; 2]) -> (V3, V3);
+    /// Whether `params` is inside the entity.
+    fn contains(&self, params: [f64; 2]) -> bool;
+    /// The point at `params`.
+    fn point(&self, params: [f64; 2]) -> P3;
+}
+
+/// Bubbles on a trimmed surface.
+pub struct OnFace<'a> {
+    pub surface: &'a dyn Surface,
+    pub region: Region,
+    pub entity: EntityRef,
+}
+
+/// Solves the first-fundamental-form system for the parameter step of a
+/// tangent displacement `dx` (see the module docs). `None` at a degenerate
+/// point (S_u × S_v = 0).
+pub fn parameter_step(su: &V3, sv: &V3, dx: &V3) -> Option<[f64; 2]> {
+    let (e, f, g) = (su.dot(su), su.dot(sv), sv.dot(sv));
+    let det = e * g - f * f;
+    if !(det > 1e-300) {
+        return None;
+    }
+    let (a, b) = (dx.dot(su), dx.dot(sv));
+    Some([(g * a - f * b) / det, (e * b - f * a) / det])
+}
+
+impl Carrier for OnFace<'_> {
+    fn entity(&self) -> EntityRef {
+        self.entity
+    }
+    fn advance(&self, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+        let dv = self.surface.derivs(params[0], params[1]);
+        let step = parameter_step(&dv.su, &dv.sv, dx)?;
+        let uv = [params[0] + step[0], params[1] + step[1]];
+        if !self.contains(uv) {
+            return None;
+        }
+        Some((self.surface.point(uv[0], uv[1]), uv))
+    }
+    fn frame(&self, params: [f64; 2]) -> (V3, V3) {
+        let dv = self.surface.derivs(params[0], params[1]);
+        let t1 = dv.su.normalize();
+        let t2 = (dv.sv - t1 * t1.dot(&dv.sv)).normalize();
+        (t1, t2)
+    }
+    fn contains(&self, params: [f64; 2]) -> bool {
+        match self.surface.trim(params[0], params[1]) {
+            Some(inside) => inside && self.region.contains(params[0], params[1]),
+            None => self.region.contains(params[0], params[1]),
+        }
+    }
+    fn point(&self, params: [f64; 2]) -> P3 {
+        self.surface.point(params[0], params[1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_fundamental_form_step_is_exact_on_a_skewed_plane() {
+        // S(u,v) = u·(1,0,0) + v·(1,1,0): S_u and S_v are not orthogonal, so
+        // the thesis's separate projections (eq. 4.5.2) would be wrong.
+        let su = V3::new(1.0, 0.0, 0.0);
+        let sv = V3::new(1.0, 1.0, 0.0);
+        let dx = V3::new(0.3, 0.2, 0.0);
+        let s = parameter_step(&su, &sv, &dx).unwrap();
+        let back = su * s[0] + sv * s[1];
+        assert!((back - dx).norm() < 1e-14);
+        // eq. 4.5.2 as printed misses:
+        let naive = su * (dx.dot(&su) / su.dot(&su)) + sv * (dx.dot(&sv) / sv.dot(&sv));
+        assert!((naive - dx).norm() > 0.1);
+    }
+
+    #[test]
+    fn normal_component_is_dropped() {
+        let su = V3::new(2.0, 0.0, 0.0);
+        let sv = V3::new(0.0, 0.5, 0.0);
+        let s = parameter_step(&su, &sv, &V3::new(0.2, 0.1, 5.0)).unwrap();
+        assert!((s[0] - 0.1).abs() < 1e-15 && (s[1] - 0.2).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,136 @@
+//! Neighbour search: a uniform cell grid in model space, rebuilt every step in
+//! O(n) (counting sort into compressed rows).
+//!
+//! Written by hand rather than taken from a k-d tree crate because the engine
+//! rebuilds it every time step and the counting sort is both simpler and
+//! faster for that use than a tree rebuild.
+//!
+//! Invariant: `query(p, r, f)` calls `f` for every bubble whose position is
+//! within distance `r` of `p` (and possibly for some farther ones; callers
+//! test the distance).
+
+use crate::geom::P3;
+
+pub struct Grid {
+    lo: P3,
+    inv_h: f64,
+    dims: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Grid {
+    /// Builds a grid over `pos` with cells of side about `h`, enlarged when
+    /// needed so that there are at most `max(8·n, 64)` cells.
+    pub fn new(pos: &[P3], h: f64) -> Grid {
+        let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for p in pos {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        if pos.is_empty() {
+            lo = P3::origin();
+            hi = P3::origin();
+        }
+        let ext = hi - lo;
+        let max_cells = (8 * pos.len()).max(64) as f64;
+        let mut h = if h.is_finite() && h > 0.0 { h } else { ext.norm().max(1.0) };
+        loop {
+            let cells: f64 = (0..3).map(|k| (ext[k] / h).floor() + 1.0).product();
+            if cells <= max_cells {
+                break;
+            }
+            h *= 1.26;
+        }
+        let dims = [0, 1, 2].map(|k| (ext[k] / h).floor() as usize + 1);
+        let ncell = dims[0] * dims[1] * dims[2];
+        let inv_h = 1.0 / h;
+        let mut start = vec![0u32; ncell + 1];
+        let cell_of = |p: &P3| -> usize {
+            let i = (((p.x - lo.x) * inv_h) as usize).min(dims[0] - 1);
+            let j = (((p.y - lo.y) * inv_h) as usize).min(dims[1] - 1);
+            let k = (((p.z - lo.z) * inv_h) as usize).min(dims[2] - 1);
+            i + dims[0] * (j + dims[1] * k)
+        };
+        let cells: Vec<usize> = pos.iter().map(cell_of).collect();
+        for &c in &cells {
+            start[c + 1] += 1;
+        }
+        for c in 0..ncell {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut items = vec![0u32; pos.len()];
+        for (i, &c) in cells.iter().enumerate() {
+            items[fill[c] as usize] = i as u32;
+            fill[c] += 1;
+        }
+        Grid {
+            lo,
+            inv_h,
+            dims,
+            start,
+            items,
+        }
+    }
+
+    /// Calls `f(j)` for the bubbles in the cells overlapping the ball (p, r).
+    #[inline]
+    pub fn query(&self, p: &P3, r: f64, mut f: impl FnMut(u32)) {
+        let mut a = [0usize; 3];
+        let mut b = [0usize; 3];
+        for k in 0..3 {
+            let lo = ((p[k] - r - self.lo[k]) * self.inv_h).floor();
+            let hi = ((p[k] + r - self.lo[k]) * self.inv_h).floor();
+            if hi < 0.0 || lo > (self.dims[k] - 1) as f64 {
+                return;
+            }
+            a[k] = lo.max(0.0) as usize;
+            b[k] = (hi as usize).min(self.dims[k] - 1);
+        }
+        for k in a[2]..=b[2] {
+            for j in a[1]..=b[1] {
+                let row = self.dims[0] * (j + self.dims[1] * k);
+                let s = self.start[row + a[0]] as usize;
+                let e = self.start[row + b[0] + 1] as usize;
+                for &it in &self.items[s..e] {
+                    f(it);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_every_point_within_radius() {
+        let mut pts = Vec::new();
+        let mut s = 12345u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s % 1_000_000) as f64 / 1_000_000.0
+        };
+        for _ in 0..2000 {
+            pts.push(P3::new(rnd(), rnd() * 0.5, 0.0));
+        }
+        let g = Grid::new(&pts, 0.03);
+        for q in pts.iter().take(200) {
+            let r = 0.05;
+            let mut found = Vec::new();
+            g.query(q, r, |j| found.push(j));
+            for (j, p) in pts.iter().enumerate() {
+                if (p - q).norm() <= r {
+                    assert!(found.contains(&(j as u32)));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,221 @@
+//! Adaptive bubble population control (thesis §4.7): delete *excess*
+//! bubbles that overlap their neighbours too much, and add bubbles next to
+//! *open* bubbles that lack neighbours.
+//!
+//! ## Criteria and how they were calibrated
+//! The thesis's text and its Fig. 4.18 disagree on the thresholds (text:
+//! open below ≈ 50 %, excess above ≈ 140 %; figure: open below 500 %), and
+//! neither says exactly what the penetration is divided by. The ratios used
+//! here are defined with the stable distance r0 = (d_i + d_j)/2 and
+//! w = r/r0:
+//!
+//! - **excess ratio** E_i = Σ_j max(0, 1 − w_ij) over all neighbours. It is 0
+//!   in a tangent packing; a bubble dropped in the middle of three tangent
+//!   bubbles has E = 3(1 − 1/√3) = 1.27 (the thesis's "≈ 140 %" example);
+//!   a hexagonal patch uniformly compressed to w has E = 6(1 − w).
+//! - **open ratio** (the thesis's doubled bubble): O_i = Σ_j max(0,
+//!   (d_i + d_j/2 − r_ij) / (d_i/2)) — the penetration of a bubble of twice the
+//!   diameter into its neighbours, over the original radius. It is 6 (600 %)
+//!   in a tangent hexagonal packing, 5 at a five-valent node, and
+//!   6(3 − 2w) for a hexagonal patch uniformly stretched to w.
+//!
+//! Thresholds ([`EXCESS`], [`OPEN`]) were set so that the stable band of a
+//! uniformly strained hexagonal patch is w ∈ [0.88, 1.17] — inside the
+//! mesh's target band L/d ∈ [1/√2, √2] with margin — and then checked on the
+//! benchmark cases A–C (`bench/run_2d.py`): lowering EXCESS below 0.6 made
+//! deletion and insertion chase each other near graded boundaries; raising
+//! OPEN above 4.5 split bubbles at ordinary five-valent nodes.
+//! A third rule fills holes: an angular gap between consecutive neighbours
+//! wider than [`GAP_ANGLE`] gets a bubble at distance d_i on its bisector if
+//! that spot is free (no bubble closer than [`FIT`]·r0).
+
+use std::collections::HashMap;
+
+use crate::geom::{P3, V3};
+
+use super::constraint::Carrier;
+use super::grid::Grid;
+use super::system::{Pair, System};
+use super::MeshError;
+
+/// Delete a free bubble whose excess ratio exceeds this.
+pub const EXCESS: f64 = 0.7;
+/// A bubble whose open ratio is below this is open (lacks neighbours).
+pub const OPEN: f64 = 4.0;
+/// Angular gap (radians) between neighbours that is a hole (hexagonal: 60°).
+pub const GAP_ANGLE: f64 = 100.0 * std::f64::consts::PI / 180.0;
+/// A new bubble must be at least FIT·r0 from every bubble (hole rule).
+pub const FIT: f64 = 0.85;
+/// The same for the open rule, which inserts into stretched regions where
+/// the dynamics will make room.
+pub const FIT_OPEN: f64 = 0.6;
+
+/// One round of population control on `sys`, given its current pairs and
+/// grid. Returns (deleted, added).
+pub fn control<C: Carrier>(
+    sys: &mut System<'_, C>,
+    pairs: &[Pair],
+    grid: &Grid,
+) -> Result<(usize, usize), MeshError> {
+    let n = sys.n();
+    let nf = sys.n_fixed;
+    // adjacency in compressed rows
+    let mut deg = vec![0u32; n + 1];
+    for p in pairs {
+        deg[p.i as usize + 1] += 1;
+        deg[p.j as usize + 1] += 1;
+    }
+    for k in 0..n {
+        deg[k + 1] += deg[k];
+    }
+    let mut fill = deg.clone();
+    let mut adj = vec![0u32; deg[n] as usize];
+    for p in pairs {
+        adj[fill[p.i as usize] as usize] = p.j;
+        fill[p.i as usize] += 1;
+        adj[fill[p.j as usize] as usize] = p.i;
+        fill[p.j as usize] += 1;
+    }
+    let mut excess = vec![0.0f64; n];
+    for p in pairs {
+        let o = (1.0 - p.w).max(0.0);
+        excess[p.i as usize] += o;
+        excess[p.j as usize] += o;
+    }
+
+    // --- deletion: an independent set of the most crowded bubbles
+    let mut cand: Vec<usize> = (nf..n).filter(|&i| excess[i] > EXCESS).collect();
+    cand.sort_by(|&a, &b| excess[b].total_cmp(&excess[a]));
+    let mut deleted = vec![false; n];
+    let mut blocked = vec![false; n];
+    let mut to_delete = Vec::new();
+    for i in cand {
+        if blocked[i] {
+            continue;
+        }
+        deleted[i] = true;
+        to_delete.push(i);
+        for &j in &adj[deg[i] as usize..deg[i + 1] as usize] {
+            blocked[j as usize] = true;
+        }
+    }
+
+    // --- insertion
+    let mut new_bubbles: Vec<(P3, [f64; 2], f64)> = Vec::new();
+    let mut new_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let cell_h = sys.d.iter().cloned().fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
+    let key = |p: &P3| [0, 1, 2].map(|k| (p[k] / cell_h).floor() as i64);
+    let dmax = cell_h;
+    let mut angles: Vec<f64> = Vec::new();
+    for i in 0..n {
+        if deleted[i] {
+            continue;
+        }
+        let (pi, di) = (sys.pos[i], sys.d[i]);
+        let nbrs = &adj[deg[i] as usize..deg[i + 1] as usize];
+        let open_ratio: f64 = nbrs
+            .iter()
+            .map(|&j| {
+                let j = j as usize;
+                let r = (sys.pos[j] - pi).norm();
+                ((di + 0.5 * sys.d[j] - r) / (0.5 * di)).max(0.0)
+            })
+            .sum();
+        let (t1, t2) = sys.carrier.frame(sys.params[i]);
+        angles.clear();
+        for &j in nbrs {
+            let v = sys.pos[j as usize] - pi;
+            angles.push(v.dot(&t2).atan2(v.dot(&t1)));
+        }
+        // gaps between consecutive neighbour directions, widest first
+        let mut gaps: Vec<(f64, f64)> = Vec::new(); // (width, bisector angle)
+        if angles.is_empty() {
+            gaps.push((std::f64::consts::TAU, 0.0));
+        } else {
+            angles.sort_by(|a, b| a.total_cmp(b));
+            for k in 0..angles.len() {
+                let a = angles[k];
+                let b = if k + 1 < angles.len() {
+                    angles[k + 1]
+                } else {
+                    angles[0] + std::f64::consts::TAU
+                };
+                gaps.push((b - a, 0.5 * (a + b)));
+            }
+            gaps.sort_by(|a, b| b.0.total_cmp(&a.0));
+        }
+        let is_open = i >= nf && open_ratio < OPEN;
+        for &(width, bis) in gaps.iter().take(3) {
+            let fit = if width > GAP_ANGLE {
+                FIT
+            } else if is_open {
+                FIT_OPEN
+            } else {
+                break;
+            };
+            let dir: V3 = t1 * bis.cos() + t2 * bis.sin();
+            let Some((pc, uv)) = sys.carrier.advance(sys.params[i], &(dir * di)) else {
+                continue;
+            };
+            let dc = sys.spacing_at(&pc, uv)?;
+            if spot_is_free(sys, grid, &new_bubbles, &new_cells, &key, &pc, dc, dmax.max(dc), fit) {
+                new_cells.entry(key(&pc)).or_default().push(new_bubbles.len());
+                new_bubbles.push((pc, uv, dc));
+                break;
+            }
+        }
+    }
+
+    // apply: delete from the back so swap-remove does not disturb pending ids
+    to_delete.sort_unstable_by(|a, b| b.cmp(a));
+    for &i in &to_delete {
+        sys.remove_free(i);
+    }
+    let added = new_bubbles.len();
+    for (p, uv, d) in new_bubbles {
+        sys.push_free(p, uv, d);
+    }
+    Ok((to_delete.len(), added))
+}
+
+/// Whether no existing or newly placed bubble is closer than
+/// `fit`·(d + d_k)/2 to `p`.
+#[allow(clippy::too_many_arguments)]
+fn spot_is_free<C: Carrier>(
+    sys: &System<'_, C>,
+    grid: &Grid,
+    new_bubbles: &[(P3, [f64; 2], f64)],
+    new_cells: &HashMap<[i64; 3], Vec<usize>>,
+    key: &impl Fn(&P3) -> [i64; 3],
+    p: &P3,
+    d: f64,
+    dmax: f64,
+    fit: f64,
+) -> bool {
+    let mut free = true;
+    grid.query(p, fit * 0.5 * (d + dmax), |k| {
+        let k = k as usize;
+        if free && (sys.pos[k] - p).norm() < fit * 0.5 * (d + sys.d[k]) {
+            free = false;
+        }
+    });
+    if !free {
+        return false;
+    }
+    let c = key(p);
+    for dx in -1..=1 {
+        for dy in -1..=1 {
+            for dz in -1..=1 {
+                if let Some(v) = new_cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                    for &k in v {
+                        let (q, _, dk) = new_bubbles[k];
+                        if (q - p).norm() < fit * 0.5 * (d + dk) {
+                            return false;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    true
+}

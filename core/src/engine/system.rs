@@ -1,0 +1,502 @@
+//! A bubble system for one entity: fixed bubbles (its boundary, already
+//! meshed) and free bubbles that move on the entity (thesis §3.2.3).
+//!
+//! Layout: structure of arrays; fixed bubbles occupy indices `0..n_fixed`,
+//! free bubbles the rest. Deleting a free bubble swaps the last one into its
+//! place, so indices of free bubbles are not stable across population control.
+
+use crate::geom::{P3, V3};
+use crate::spacing::{Spacing, SpacingQuery};
+
+use super::constraint::Carrier;
+use super::dynamics::{self, Integrator, K0, MASS};
+use super::force;
+use super::grid::Grid;
+use super::population;
+use super::{EnergySample, MeshError};
+
+/// One pass's bubbles.
+pub struct System<'a, C: Carrier> {
+    pub carrier: C,
+    pub spacing: &'a dyn Spacing,
+    /// The meshing dimension (2 for faces), for the physical constants.
+    pub dim: u8,
+    pub n_fixed: usize,
+    pub pos: Vec<P3>,
+    pub params: Vec<[f64; 2]>,
+    pub vel: Vec<V3>,
+    /// Bubble diameters d(x) at the current positions.
+    pub d: Vec<f64>,
+    /// Global node ids of the fixed bubbles.
+    pub fixed_ids: Vec<u32>,
+}
+
+/// Result of the stage-2 relaxation.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RelaxStats {
+    pub steps: usize,
+    pub converged: bool,
+    pub deleted: usize,
+    pub added: usize,
+    /// max |Δx|/d over free bubbles in the last step.
+    pub final_max_move: f64,
+    pub energy: Vec<EnergySample>,
+}
+
+/// Stage-2 settings.
+#[derive(Clone, Copy, Debug)]
+pub struct RelaxSettings {
+    pub integrator: Integrator,
+    pub max_steps: usize,
+    /// Converged when max |Δx|/d over free bubbles is below this.
+    pub tol: f64,
+    /// Population control every this many steps.
+    pub population_every: usize,
+    /// No population changes after this fraction of `max_steps`, so the last
+    /// steps only relax.
+    pub population_until: f64,
+    pub record_energy: bool,
+}
+
+impl Default for RelaxSettings {
+    fn default() -> Self {
+        RelaxSettings {
+            integrator: Integrator::Euler,
+            max_steps: 600,
+            tol: 2e-4,
+            population_every: 8,
+            population_until: 0.75,
+            record_energy: true,
+        }
+    }
+}
+
+/// A pair of interacting bubbles (i < j not implied).
+#[derive(Clone, Copy, Debug)]
+pub struct Pair {
+    pub i: u32,
+    pub j: u32,
+    /// distance / stable distance
+    pub w: f64,
+    /// unit vector from j to i
+    pub dir: V3,
+    pub r0: f64,
+}
+
+impl<'a, C: Carrier> System<'a, C> {
+    pub fn n(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// d at a point of this entity, checked finite and > 0.
+    pub fn spacing_at(&self, p: &P3, params: [f64; 2]) -> Result<f64, MeshError> {
+        let d = self.spacing.spacing(&SpacingQuery {
+            point: *p,
+            entity: self.carrier.entity(),
+            params,
+        });
+        if d.is_finite() && d > 0.0 {
+            Ok(d)
+        } else {
+            Err(MeshError::BadSpacing {
+                value: d,
+                point: *p,
+                entity: self.carrier.entity(),
+            })
+        }
+    }
+
+    /// Adds a free bubble at rest.
+    pub fn push_free(&mut self, p: P3, params: [f64; 2], d: f64) {
+        self.pos.push(p);
+        self.params.push(params);
+        self.vel.push(V3::zeros());
+        self.d.push(d);
+    }
+
+    /// Removes free bubble `i` (swap-remove).
+    pub fn remove_free(&mut self, i: usize) {
+        debug_assert!(i >= self.n_fixed);
+        self.pos.swap_remove(i);
+        self.params.swap_remove(i);
+        self.vel.swap_remove(i);
+        self.d.swap_remove(i);
+    }
+
+    /// A neighbour grid over the current positions.
+    pub fn grid(&self) -> Grid {
+        let dmin = self.d.iter().cloned().fold(f64::INFINITY, f64::min);
+        Grid::new(&self.pos, force::CUTOFF * dmin)
+    }
+
+    /// Every interacting pair (w < 1.5) with at least one free bubble, each
+    /// once.
+    ///
+    /// Bubble i searches radius 1.5·d_i and keeps neighbours j with
+    /// d_j < d_i (ties by index): a pair's cutoff 1.5·(d_i+d_j)/2 never
+    /// exceeds 1.5·max(d_i, d_j), so the larger bubble always finds it.
+    pub fn pairs(&self, grid: &Grid, out: &mut Vec<Pair>) {
+        out.clear();
+        let nf = self.n_fixed;
+        for i in 0..self.n() {
+            let (pi, di) = (self.pos[i], self.d[i]);
+            grid.query(&pi, force::CUTOFF * di, |j| {
+                let j = j as usize;
+                let dj = self.d[j];
+                if !(dj < di || (dj == di && j > i)) || (i < nf && j < nf) {
+                    return;
+                }
+                let delta = pi - self.pos[j];
+                let r = delta.norm();
+                let r0 = 0.5 * (di + dj);
+                let w = r / r0;
+                if w < force::CUTOFF && r > 0.0 {
+                    out.push(Pair {
+                        i: i as u32,
+                        j: j as u32,
+                        w,
+                        dir: delta / r,
+                        r0,
+                    });
+                } else if r == 0.0 {
+                    // coincident bubbles: push apart along an arbitrary but
+                    // deterministic tangent direction
+                    let (t1, _) = self.carrier.frame(self.params[i]);
+                    out.push(Pair {
+                        i: i as u32,
+                        j: j as u32,
+                        w: 0.0,
+                        dir: t1,
+                        r0,
+                    });
+                }
+            });
+        }
+    }
+
+
+
+
+
+    /// Neighbour lists with a skin (Verlet lists): every pair closer than
+    /// (1.5 + SKIN)·r0, both directions, in compressed rows. Reused until a
+    /// bubble has moved far enough to use up the skin.
+    fn neighbours(&self) -> Neighbours {
+        let grid = self.grid();
+        let reach = force::CUTOFF + SKIN;
+        let nf = self.n_fixed;
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for i in 0..self.n() {
+            let (pi, di) = (self.pos[i], self.d[i]);
+            grid.query(&pi, reach * di, |j| {
+                let j = j as usize;
+                let dj = self.d[j];
+                if !(dj < di || (dj == di && j > i)) || (i < nf && j < nf) {
+                    return;
+                }
+                if (pi - self.pos[j]).norm() < reach * 0.5 * (di + dj) {
+                    pairs.push((i as u32, j as u32));
+                }
+            });
+        }
+        let n = self.n();
+        let mut start = vec![0u32; n + 1];
+        for &(i, j) in &pairs {
+            start[i as usize + 1] += 1;
+            start[j as usize + 1] += 1;
+        }
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut adj = vec![0u32; start[n] as usize];
+        for &(i, j) in &pairs {
+            adj[fill[i as usize] as usize] = j;
+            fill[i as usize] += 1;
+            adj[fill[j as usize] as usize] = i;
+            fill[j as usize] += 1;
+        }
+        Neighbours {
+            start,
+            adj,
+            built_pos: self.pos.clone(),
+            stale: false,
+        }
+    }
+
+    /// Net force on bubble i from its neighbour list.
+    #[inline]
+    fn force_on(&self, nb: &Neighbours, i: usize) -> V3 {
+        let (pi, di) = (self.pos[i], self.d[i]);
+        let mut f = V3::zeros();
+        for &j in nb.of(i) {
+            let j = j as usize;
+            let delta = pi - self.pos[j];
+            let r = delta.norm();
+            let r0 = 0.5 * (di + self.d[j]);
+            if r > 0.0 && r < force::CUTOFF * r0 {
+                f += delta * (force::magnitude(r, r0, K0) / r);
+            } else if r == 0.0 && i > j {
+                // coincident bubbles: separate along a deterministic tangent
+                f += self.carrier.frame(self.params[i]).0 * force::magnitude(0.0, r0, K0);
+            }
+        }
+        f
+    }
+
+    /// Potential energy of all pairs in the neighbour lists.
+    fn potential(&self, nb: &Neighbours) -> f64 {
+        let mut u = 0.0;
+        for i in 0..self.n() {
+            for &j in nb.of(i) {
+                let j = j as usize;
+                if j < i {
+                    continue;
+                }
+                let r0 = 0.5 * (self.d[i] + self.d[j]);
+                u += force::potential((self.pos[i] - self.pos[j]).norm(), r0, K0);
+            }
+        }
+        u
+    }
+
+    /// Moves free bubble i by the object-space displacement dx, keeping it on
+    /// the entity; returns |Δx|/d, or None when the move would leave the
+    /// entity (the bubble stays).
+    fn move_bubble(&mut self, i: usize, dx: &V3) -> Option<f64> {
+        let (p, uv) = self.carrier.advance(self.params[i], dx)?;
+        let m = (p - self.pos[i]).norm() / self.d[i];
+        self.pos[i] = p;
+        self.params[i] = uv;
+        Some(m)
+    }
+
+    /// Stage 2: relaxes the free bubbles to a force balance with adaptive
+    /// population control (§4.3–4.7). `progress(step)` is called each step.
+    ///
+    /// Work per step is proportional to the bubbles still moving: a bubble
+    /// whose net force and velocity are negligible *sleeps* (it is held
+    /// where it is) until a neighbour moves; with a uniform spacing the
+    /// stage-1 lattice is already balanced and only the bubbles near the
+    /// boundary ever wake. Neighbour lists are Verlet lists with a skin.
+    pub fn relax(
+        &mut self,
+        s: &RelaxSettings,
+        mut progress: impl FnMut(usize),
+    ) -> Result<RelaxStats, MeshError> {
+        let h = dynamics::time_step(self.dim);
+        let c = dynamics::damping(self.dim);
+        let mut stats = RelaxStats::default();
+        let pop_until = (s.max_steps as f64 * s.population_until) as usize;
+        let mut quiet_checks = 0;
+        let mut last_pop_step = 0;
+        let mut nb = self.neighbours();
+        let mut awake: Vec<u32> = (self.n_fixed as u32..self.n() as u32).collect();
+        let mut stamp = vec![0u32; self.n()];
+        let mut cand: Vec<u32> = Vec::new();
+        let mut forces: Vec<V3> = Vec::new();
+        let energy_stride = (self.n() / 20_000).max(1);
+        for step in 1..=s.max_steps {
+            if self.n() == self.n_fixed {
+                stats.converged = true;
+                break;
+            }
+            if s.record_energy && (step % energy_stride == 0 || step == 1) {
+                let kinetic: f64 = self.vel[self.n_fixed..]
+                    .iter()
+                    .map(|v| 0.5 * MASS * v.norm_squared())
+                    .sum();
+                let potential = self.potential(&nb);
+                stats.energy.push(EnergySample {
+                    step,
+                    kinetic,
+                    potential,
+                    total: kinetic + potential,
+                    bubbles: self.n() - self.n_fixed,
+                });
+            }
+            let max_move = match s.integrator {
+                Integrator::Euler => {
+                    // candidates: awake bubbles and their free neighbours
+                    cand.clear();
+                    let tag = step as u32;
+                    for &i in &awake {
+                        if stamp[i as usize] != tag {
+                            stamp[i as usize] = tag;
+                            cand.push(i);
+                        }
+                        for &j in nb.of(i as usize) {
+                            if j as usize >= self.n_fixed && stamp[j as usize] != tag {
+                                stamp[j as usize] = tag;
+                                cand.push(j);
+                            }
+                        }
+                    }
+                    // forces at the start of the step (eq. 4.4.6)
+                    forces.clear();
+                    forces.extend(cand.iter().map(|&i| self.force_on(&nb, i as usize)));
+                    awake.clear();
+                    let mut max_move: f64 = 0.0;
+                    for (k, &i) in cand.iter().enumerate() {
+                        let i = i as usize;
+                        let f = forces[k];
+                        let v = self.vel[i];
+                        let fscale = K0 * self.d[i];
+                        if f.norm() < SLEEP_FORCE * fscale && v.norm() * h < SLEEP_MOVE * self.d[i] {
+                            self.vel[i] = V3::zeros();
+                            continue;
+                        }
+                        awake.push(i as u32);
+                        // x <- x + h v ; v <- v + h (f - c v)/m
+                        match self.move_bubble(i, &(v * h)) {
+                            Some(m) => {
+                                max_move = max_move.max(m);
+                                let (t1, t2) = self.carrier.frame(self.params[i]);
+                                let nv = v + (f - v * c) * (h / MASS);
+                                self.vel[i] = t1 * nv.dot(&t1) + t2 * nv.dot(&t2);
+                            }
+                            None => self.vel[i] = V3::zeros(),
+                        }
+                        if self.spacing.constant().is_none() {
+                            self.d[i] = self.spacing_at(&self.pos[i], self.params[i])?;
+                        }
+                        let moved = (self.pos[i] - nb.built_pos[i]).norm();
+                        if moved > 0.25 * SKIN * self.d[i] {
+                            nb.stale = true;
+                        }
+                    }
+                    max_move
+                }
+                Integrator::Rk4 => {
+                    let m = self.step_rk4(h, c, &nb)?;
+                    awake = (self.n_fixed as u32..self.n() as u32).collect();
+                    if self
+                        .pos
+                        .iter()
+                        .zip(&nb.built_pos)
+                        .zip(&self.d)
+                        .any(|((p, q), d)| (p - q).norm() > 0.25 * SKIN * d)
+                    {
+                        nb.stale = true;
+                    }
+                    m
+                }
+            };
+            stats.steps = step;
+            stats.final_max_move = max_move;
+            progress(step);
+
+            let population_open = step <= pop_until && quiet_checks < 3;
+            if population_open && step % s.population_every == 0 {
+                let grid = self.grid();
+                let mut pairs = Vec::new();
+                self.pairs(&grid, &mut pairs);
+                let (del, add) = population::control(self, &pairs, &grid)?;
+                stats.deleted += del;
+                stats.added += add;
+                if del + add == 0 {
+                    quiet_checks += 1;
+                } else {
+                    quiet_checks = 0;
+                    last_pop_step = step;
+                    nb = self.neighbours();
+                    stamp = vec![0u32; self.n()];
+                    // everything near a change must move again
+                    awake = (self.n_fixed as u32..self.n() as u32).collect();
+                }
+                continue;
+            }
+            if nb.stale {
+                nb = self.neighbours();
+            }
+            let settled_since_pop = step >= last_pop_step + s.population_every;
+            if (awake.is_empty() || max_move < s.tol)
+                && settled_since_pop
+                && (!population_open || quiet_checks >= 1)
+            {
+                stats.converged = true;
+                break;
+            }
+        }
+        Ok(stats)
+    }
+
+    /// One fourth-order Runge–Kutta step (eq. 4.4.9) over all free bubbles.
+    /// Intermediate states are kept on the entity through the same
+    /// constraint as the final move.
+    fn step_rk4(&mut self, h: f64, c: f64, nb: &Neighbours) -> Result<f64, MeshError> {
+        let nf = self.n_fixed;
+        let n = self.n();
+        let x0: Vec<(P3, [f64; 2])> = (nf..n).map(|i| (self.pos[i], self.params[i])).collect();
+        let v0: Vec<V3> = self.vel[nf..].to_vec();
+        let accel = |sys: &Self, v: &[V3]| -> Vec<V3> {
+            (nf..n)
+                .map(|i| (sys.force_on(nb, i) - v[i - nf] * c) / MASS)
+                .collect()
+        };
+        let set = |sys: &mut Self, s: f64, v: &[V3]| {
+            for i in nf..n {
+                let k = i - nf;
+                let (p, uv) = sys.carrier.advance(x0[k].1, &(v[k] * s)).unwrap_or(x0[k]);
+                sys.pos[i] = p;
+                sys.params[i] = uv;
+            }
+        };
+        let a1 = accel(self, &v0);
+        let v2: Vec<V3> = (0..v0.len()).map(|k| v0[k] + a1[k] * (0.5 * h)).collect();
+        set(self, 0.5 * h, &v0);
+        let a2 = accel(self, &v2);
+        let v3: Vec<V3> = (0..v0.len()).map(|k| v0[k] + a2[k] * (0.5 * h)).collect();
+        set(self, 0.5 * h, &v2);
+        let a3 = accel(self, &v3);
+        let v4: Vec<V3> = (0..v0.len()).map(|k| v0[k] + a3[k] * h).collect();
+        set(self, h, &v3);
+        let a4 = accel(self, &v4);
+        let mut max_move: f64 = 0.0;
+        for i in nf..n {
+            let k = i - nf;
+            let v = (v0[k] + v2[k] * 2.0 + v3[k] * 2.0 + v4[k]) / 6.0;
+            let a = (a1[k] + a2[k] * 2.0 + a3[k] * 2.0 + a4[k]) / 6.0;
+            match self.carrier.advance(x0[k].1, &(v * h)) {
+                Some((p, uv)) => {
+                    max_move = max_move.max((p - x0[k].0).norm() / self.d[i]);
+                    self.pos[i] = p;
+                    self.params[i] = uv;
+                    self.vel[i] = v0[k] + a * h;
+                }
+                None => {
+                    self.pos[i] = x0[k].0;
+                    self.params[i] = x0[k].1;
+                    self.vel[i] = V3::zeros();
+                }
+            }
+            if self.spacing.constant().is_none() {
+                self.d[i] = self.spacing_at(&self.pos[i], self.params[i])?;
+            }
+        }
+        Ok(max_move)
+    }
+}
+
+/// Extra reach of the neighbour lists beyond the force cutoff, in units of
+/// the stable distance.
+const SKIN: f64 = 0.3;
+/// A bubble sleeps when its net force is below this fraction of k0·d ...
+const SLEEP_FORCE: f64 = 2e-4;
+/// ... and its last move below this fraction of d.
+const SLEEP_MOVE: f64 = 2e-5;
+
+/// Verlet neighbour lists in compressed rows.
+pub struct Neighbours {
+    start: Vec<u32>,
+    adj: Vec<u32>,
+    built_pos: Vec<P3>,
+    stale: bool,
+}
+
+impl Neighbours {
+    #[inline]
+    fn of(&self, i: usize) -> &[u32] {
+        &self.adj[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+}
