@@ -1,1 +1,20 @@
-//! Analytic geometry adapter (being written).
+//! # bubblemesh-analytic
+//!
+//! Analytic geometry for bubblemesh and its TOML domain format.
+//!
+//! - [`curves`]: [`Line`], [`CircleArc`] and [`Nurbs`], each implementing
+//!   [`bubblemesh_core::geom::Curve`] with exact first and second
+//!   derivatives;
+//! - [`domain`]: the versioned TOML format for planar domains and curve
+//!   sets (`docs/domain-format.md`), read into a
+//!   [`bubblemesh_core::model::Model`] by [`read_domain`] / [`parse_domain`].
+
+// `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it is also
+// true for NaN, which is how invalid input is rejected without a panic.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod curves;
+pub mod domain;
+
+pub use curves::{CircleArc, GeometryError, Line, Nurbs, MAX_NURBS_DEGREE};
+pub use domain::{parse_domain, read_domain, DomainError, FORMAT};
