@@ -174,18 +174,19 @@ pub fn analyse(mesh: &Mesh, spacing: Option<&dyn Spacing>) -> QualityReport {
     let tets = (!mesh.tetrahedra.is_empty()).then(|| tet_quality(&pos, mesh));
 
     // Unique edges of the analysed elements, each with one element using it.
-    let (edges, entity_of): (Vec<(u64, u32)>, Box<dyn Fn(u32) -> EntityRef>) =
-        if !mesh.tetrahedra.is_empty() {
-            (
-                sorted_edges(mesh.tetrahedra.iter().map(|t| t.nodes)),
-                Box::new(|e| mesh.tetrahedra[e as usize].entity),
-            )
+    let use_tets = !mesh.tetrahedra.is_empty();
+    let edges = if use_tets {
+        sorted_edges(mesh.tetrahedra.iter().map(|t| t.nodes))
+    } else {
+        tri_edges.unwrap_or_default()
+    };
+    let entity_of = |e: u32| {
+        if use_tets {
+            mesh.tetrahedra[e as usize].entity
         } else {
-            (
-                tri_edges.unwrap_or_default(),
-                Box::new(|e| mesh.triangles[e as usize].entity),
-            )
-        };
+            mesh.triangles[e as usize].entity
+        }
+    };
     let unique: Vec<(u64, u32)> = unique_edges(&edges).map(|(k, e, _)| (k, e)).collect();
     drop(edges);
 
@@ -205,7 +206,7 @@ pub fn analyse(mesh: &Mesh, spacing: Option<&dyn Spacing>) -> QualityReport {
 
     let spacing = match spacing {
         Some(s) if !unique.is_empty() => {
-            let d = edge_spacing(s, &pos, &unique, &*entity_of);
+            let d = edge_spacing(s, &pos, &unique, &entity_of);
             let ratios: Vec<f64> = lengths.iter().zip(&d).map(|(l, d)| l / d).collect();
             Some(conformance(ratios))
         }
@@ -605,8 +606,11 @@ fn tet_quality(pos: &[P3], mesh: &Mesh) -> TetQuality {
     }
     let volume: f64 = vols.iter().map(|v| v.abs()).sum();
     let tol = 1e-12 * volume / n as f64;
-    let inverted = vols.iter().filter(|&&v| !(v > tol)).count();
-    let zero_volume = vols.iter().filter(|&&v| !(v.abs() > tol)).count();
+    let inverted = vols.iter().filter(|&&v| v <= tol || v.is_nan()).count();
+    let zero_volume = vols
+        .iter()
+        .filter(|&&v| v.abs() <= tol || v.is_nan())
+        .count();
     let q_mean = mean(&q);
     let q = sort_floats(q);
     TetQuality {

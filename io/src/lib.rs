@@ -1,1 +1,539 @@
-//! Mesh writers and readers (being written).
+//! # bubblemesh-io
+//!
+//! Mesh writers and readers: Gmsh MSH 4.1 ASCII (read also MSH 2.2), VTK XML
+//! `.vtu` (ASCII), STL (binary written; ASCII and binary read), Wavefront
+//! OBJ and Medit `.mesh`.
+//!
+//! [`write`] and [`read`] choose the format from the file extension. Each
+//! format module also offers `write_to` (to any [`std::io::Write`]) and
+//! `parse` (from bytes), which know nothing about files.
+//!
+//! Invariants:
+//! - writing is atomic: the output goes to a temporary file in the target's
+//!   directory which is renamed over the target only once complete; on any
+//!   error the temporary is removed and an existing target is left untouched;
+//! - every [`IoError`] names the file it is about;
+//! - readers never panic on bad input: truncated, empty or garbage files give
+//!   [`IoError::Parse`] with the reason and, where it makes sense, the line;
+//! - a read [`Mesh`] keeps the [`Mesh`] invariants that do not depend on the
+//!   file's geometry: element indices are in range, every node has an entity
+//!   (the file's own where it has one, else inferred: the entity of the
+//!   lowest-dimensional element using the node), and `entities` lists every
+//!   entity used by a node or element.
+
+use std::collections::{BTreeMap, HashSet};
+use std::fmt;
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, BufWriter};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use bubblemesh_core::mesh::{Element, EntityInfo, Mesh};
+use bubblemesh_core::model::EntityRef;
+use bubblemesh_core::P3;
+
+pub mod medit;
+pub mod msh;
+pub mod obj;
+pub mod stl;
+pub mod vtu;
+
+mod text;
+
+/// An error reading or writing a mesh file. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    /// The operating system refused (missing directory, permissions, ...).
+    #[error("{}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    /// The extension names no supported format.
+    #[error(
+        "{}: unsupported mesh file extension '{ext}' (supported: {})",
+        .path.display(),
+        Format::supported_list()
+    )]
+    UnsupportedExtension { path: PathBuf, ext: String },
+    /// The file's content is not a valid mesh of its format.
+    #[error("{}{}: {reason}", .path.display(), line_suffix(*.line))]
+    Parse {
+        path: PathBuf,
+        /// 1-based line number, when the format is line-oriented.
+        line: Option<usize>,
+        reason: String,
+    },
+    /// The mesh cannot be written (an element refers to a missing node, a
+    /// coordinate is not finite, ...).
+    #[error("{}: cannot write the mesh: {reason}", .path.display())]
+    InvalidMesh { path: PathBuf, reason: String },
+}
+
+fn line_suffix(line: Option<usize>) -> String {
+    line.map(|l| format!(":{l}")).unwrap_or_default()
+}
+
+/// A parse failure, without the file name (the format modules work on
+/// bytes; [`read`] adds the path).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParseError {
+    /// 1-based line number, when it makes sense.
+    pub line: Option<usize>,
+    pub reason: String,
+}
+
+impl ParseError {
+    pub fn new(reason: impl Into<String>) -> Self {
+        ParseError {
+            line: None,
+            reason: reason.into(),
+        }
+    }
+    pub fn at(line: usize, reason: impl Into<String>) -> Self {
+        ParseError {
+            line: Some(line),
+            reason: reason.into(),
+        }
+    }
+    fn with_path(self, path: &Path) -> IoError {
+        IoError::Parse {
+            path: path.to_path_buf(),
+            line: self.line,
+            reason: self.reason,
+        }
+    }
+}
+
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "line {l}: {}", self.reason),
+            None => f.write_str(&self.reason),
+        }
+    }
+}
+
+impl std::error::Error for ParseError {}
+
+/// The supported file formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Gmsh MSH 4.1 ASCII (reads MSH 2.2 ASCII too), `.msh`.
+    Msh,
+    /// VTK XML unstructured grid, ASCII, `.vtu`.
+    Vtu,
+    /// STL (binary written; ASCII and binary read), `.stl`.
+    Stl,
+    /// Wavefront OBJ, `.obj`.
+    Obj,
+    /// Medit (INRIA) ASCII mesh, `.mesh`.
+    Medit,
+}
+
+impl Format {
+    pub const ALL: [Format; 5] = [
+        Format::Msh,
+        Format::Vtu,
+        Format::Stl,
+        Format::Obj,
+        Format::Medit,
+    ];
+
+    /// The extension, without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Msh => "msh",
+            Format::Vtu => "vtu",
+            Format::Stl => "stl",
+            Format::Obj => "obj",
+            Format::Medit => "mesh",
+        }
+    }
+
+    /// The format of a path's extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Format, IoError> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let lower = ext.to_ascii_lowercase();
+        Format::ALL
+            .into_iter()
+            .find(|f| f.extension() == lower)
+            .ok_or_else(|| IoError::UnsupportedExtension {
+                path: path.to_path_buf(),
+                ext: if ext.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    format!(".{ext}")
+                },
+            })
+    }
+
+    fn supported_list() -> String {
+        Format::ALL
+            .iter()
+            .map(|f| format!(".{}", f.extension()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// Writes `mesh` to `path` in the format of its extension, atomically.
+pub fn write(mesh: &Mesh, path: &Path) -> Result<(), IoError> {
+    write_as(mesh, path, Format::from_path(path)?)
+}
+
+/// Writes `mesh` to `path` in `format`, atomically (see the crate invariants).
+pub fn write_as(mesh: &Mesh, path: &Path, format: Format) -> Result<(), IoError> {
+    validate(mesh).map_err(|reason| IoError::InvalidMesh {
+        path: path.to_path_buf(),
+        reason,
+    })?;
+    write_atomic(path, |w| match format {
+        Format::Msh => msh::write_to(mesh, w),
+        Format::Vtu => vtu::write_to(mesh, w),
+        Format::Stl => stl::write_to(mesh, w),
+        Format::Obj => obj::write_to(mesh, w),
+        Format::Medit => medit::write_to(mesh, w),
+    })
+}
+
+/// Reads the mesh at `path` in the format of its extension.
+pub fn read(path: &Path) -> Result<Mesh, IoError> {
+    read_as(path, Format::from_path(path)?)
+}
+
+/// Reads the mesh at `path` in `format`.
+pub fn read_as(path: &Path, format: Format) -> Result<Mesh, IoError> {
+    let data = fs::read(path).map_err(|source| IoError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if data.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(ParseError::new("the file is empty").with_path(path));
+    }
+    let parsed = match format {
+        Format::Msh => msh::parse(&data),
+        Format::Vtu => vtu::parse(&data),
+        Format::Stl => stl::parse(&data),
+        Format::Obj => obj::parse(&data),
+        Format::Medit => medit::parse(&data),
+    };
+    parsed.map_err(|e| e.with_path(path))
+}
+
+/// Checks what the writers rely on: element indices in range, entity
+/// dimensions ≤ 3, finite coordinates.
+fn validate(mesh: &Mesh) -> Result<(), String> {
+    let n = mesh.nodes.len();
+    if n > u32::MAX as usize {
+        return Err(format!("{n} nodes exceed the 32-bit index range"));
+    }
+    for (i, node) in mesh.nodes.iter().enumerate() {
+        if !node.pos.iter().all(|c| c.is_finite()) {
+            return Err(format!(
+                "node {i} has a non-finite coordinate ({}, {}, {})",
+                node.pos.x, node.pos.y, node.pos.z
+            ));
+        }
+        if node.entity.dim > 3 {
+            return Err(format!(
+                "node {i} is on an entity of dimension {}",
+                node.entity.dim
+            ));
+        }
+    }
+    fn check<const N: usize>(kind: &str, elems: &[Element<N>], n: usize) -> Result<(), String> {
+        for (i, e) in elems.iter().enumerate() {
+            if let Some(v) = e.nodes.iter().find(|&&v| v as usize >= n) {
+                return Err(format!(
+                    "{kind} {i} refers to node {v} but there are {n} nodes"
+                ));
+            }
+            if e.entity.dim > 3 {
+                return Err(format!(
+                    "{kind} {i} is on an entity of dimension {}",
+                    e.entity.dim
+                ));
+            }
+        }
+        Ok(())
+    }
+    check("line", &mesh.lines, n)?;
+    check("triangle", &mesh.triangles, n)?;
+    check("tetrahedron", &mesh.tetrahedra, n)?;
+    for e in &mesh.entities {
+        if e.entity.dim > 3 {
+            return Err(format!(
+                "entity {} has dimension {}",
+                e.entity.id, e.entity.dim
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Removes the temporary file on drop unless disarmed.
+struct TempGuard {
+    path: PathBuf,
+    armed: bool,
+}
+
+impl Drop for TempGuard {
+    fn drop(&mut self) {
+        if self.armed {
+            let _ = fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Runs `body` on a buffered temporary file next to `path`, then renames it
+/// over `path`. Nothing is left behind on failure.
+fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+) -> Result<(), IoError> {
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    let err = |source: io::Error| IoError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let name = path.file_name().ok_or_else(|| {
+        err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "not a file name",
+        ))
+    })?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp = dir.join(format!(
+        ".{}.{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let file = OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .map_err(err)?;
+    let mut guard = TempGuard {
+        path: tmp,
+        armed: true,
+    };
+    let mut w = BufWriter::with_capacity(1 << 16, file);
+    body(&mut w).map_err(err)?;
+    let file = w.into_inner().map_err(|e| err(e.into_error()))?;
+    file.sync_all().map_err(err)?;
+    drop(file);
+    fs::rename(&guard.path, path).map_err(err)?;
+    guard.armed = false;
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------
+// helpers shared by the formats
+
+/// The triangles a surface format (STL, OBJ) writes: the mesh's triangles if
+/// it has any, else the boundary faces of its tetrahedra (faces in exactly
+/// one tetrahedron), oriented outward (for either orientation of the tet),
+/// with the tetrahedron's entity. Empty for meshes with neither.
+pub fn surface_triangles(mesh: &Mesh) -> Vec<Element<3>> {
+    if !mesh.triangles.is_empty() || mesh.tetrahedra.is_empty() {
+        return mesh.triangles.clone();
+    }
+    // Face k is opposite vertex k; outward for a positively oriented tet.
+    const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+    let mut faces: Vec<([u32; 3], u32, u8)> = Vec::with_capacity(4 * mesh.tetrahedra.len());
+    for (t, tet) in mesh.tetrahedra.iter().enumerate() {
+        for (k, f) in FACES.iter().enumerate() {
+            let mut key = f.map(|i| tet.nodes[i]);
+            key.sort_unstable();
+            faces.push((key, t as u32, k as u8));
+        }
+    }
+    faces.sort_unstable();
+    let mut boundary: Vec<(u32, u8)> = faces
+        .chunk_by(|a, b| a.0 == b.0)
+        .filter(|run| run.len() == 1)
+        .map(|run| (run[0].1, run[0].2))
+        .collect();
+    boundary.sort_unstable();
+    boundary
+        .into_iter()
+        .map(|(t, k)| {
+            let tet = &mesh.tetrahedra[t as usize];
+            let p = tet.nodes.map(|i| mesh.nodes[i as usize].pos);
+            let six_v = (p[1] - p[0]).dot(&(p[2] - p[0]).cross(&(p[3] - p[0])));
+            let mut nodes = FACES[k as usize].map(|i| tet.nodes[i]);
+            if six_v < 0.0 {
+                nodes.swap(1, 2);
+            }
+            Element {
+                nodes,
+                entity: tet.entity,
+            }
+        })
+        .collect()
+}
+
+/// Fills the entity of every node with `known[i] == false`: the entity of
+/// the lowest-dimensional element using it (first such element in the order
+/// lines, triangles, tetrahedra), or `EntityRef{dim: mesh dim (2 for a mesh
+/// without elements), id: 0}` for a node no element uses.
+pub(crate) fn infer_node_entities(mesh: &mut Mesh, known: &[bool]) {
+    let n = mesh.nodes.len();
+    let mut set: Vec<bool> = (0..n)
+        .map(|i| known.get(i).copied().unwrap_or(false))
+        .collect();
+    let Mesh {
+        nodes,
+        lines,
+        triangles,
+        tetrahedra,
+        ..
+    } = mesh;
+    let mut visit = |ids: &[u32], entity: EntityRef| {
+        for &v in ids {
+            let v = v as usize;
+            if !set[v] {
+                set[v] = true;
+                nodes[v].entity = entity;
+            }
+        }
+    };
+    for e in lines.iter() {
+        visit(&e.nodes, e.entity);
+    }
+    for e in triangles.iter() {
+        visit(&e.nodes, e.entity);
+    }
+    for e in tetrahedra.iter() {
+        visit(&e.nodes, e.entity);
+    }
+    let default = EntityRef::new(
+        match mesh.dim() {
+            0 => 2,
+            d => d,
+        },
+        0,
+    );
+    for (node, s) in mesh.nodes.iter_mut().zip(set) {
+        if !s {
+            node.entity = default;
+        }
+    }
+}
+
+/// The entity table a writer uses: `mesh.entities` (first listing wins)
+/// plus, with an empty boundary, every entity a node or element uses that is
+/// not listed; sorted by (dim, id).
+pub fn entity_table(mesh: &Mesh) -> Vec<EntityInfo> {
+    let mut table: BTreeMap<EntityRef, EntityInfo> = BTreeMap::new();
+    for e in &mesh.entities {
+        table.entry(e.entity).or_insert_with(|| e.clone());
+    }
+    let mut used: HashSet<EntityRef> = HashSet::new();
+    used.extend(mesh.nodes.iter().map(|n| n.entity));
+    used.extend(mesh.lines.iter().map(|e| e.entity));
+    used.extend(mesh.triangles.iter().map(|e| e.entity));
+    used.extend(mesh.tetrahedra.iter().map(|e| e.entity));
+    for e in used {
+        table.entry(e).or_insert_with(|| EntityInfo {
+            entity: e,
+            boundary: vec![],
+            name: None,
+        });
+    }
+    table.into_values().collect()
+}
+
+/// Sets `mesh.entities` to [`entity_table`] (readers call this last).
+pub(crate) fn complete_entities(mesh: &mut Mesh) {
+    mesh.entities = entity_table(mesh);
+}
+
+/// A float in the shortest form that reads back exactly, in exponent form
+/// only for very large or small magnitudes (Rust's `{}` never uses one).
+pub(crate) struct F(pub f64);
+
+impl fmt::Display for F {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 {
+            f.write_str("0")
+        } else if (1e-5..1e16).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+/// A node position written as `x y z`.
+pub(crate) struct Xyz<'a>(pub &'a P3);
+
+impl fmt::Display for Xyz<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {} {}", F(self.0.x), F(self.0.y), F(self.0.z))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floats_read_back_exactly() {
+        for x in [
+            0.1,
+            -1.0 / 3.0,
+            1e-300,
+            6.02e23,
+            1e15,
+            12345.678,
+            -0.0,
+            5e-324,
+        ] {
+            let s = F(x).to_string();
+            assert_eq!(s.parse::<f64>().unwrap(), x, "{s}");
+            assert!(s.len() < 30, "{s}");
+        }
+    }
+
+    #[test]
+    fn a_body_failing_midway_leaves_the_target_and_no_temporary() {
+        use std::io::Write;
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("x.msh");
+        fs::write(&target, "old").unwrap();
+        let err = write_atomic(&target, |w| {
+            w.write_all(&[b'a'; 200_000])?;
+            Err(io::Error::other("boom"))
+        })
+        .unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("x.msh") && msg.contains("boom"), "{msg}");
+        assert_eq!(fs::read_to_string(&target).unwrap(), "old");
+        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn unknown_extension_lists_the_supported_ones() {
+        let e = Format::from_path(Path::new("out/a.xyz"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a.xyz") && e.contains(".xyz"), "{e}");
+        assert!(e.contains(".msh, .vtu, .stl, .obj, .mesh"), "{e}");
+        let e = Format::from_path(Path::new("noext"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("noext") && e.contains("(none)"), "{e}");
+        assert_eq!(Format::from_path(Path::new("A.MSH")).unwrap(), Format::Msh);
+    }
+}

@@ -1,0 +1,634 @@
+//! Gmsh MSH: writes 4.1 ASCII; reads 4.1 ASCII and 2.2 ASCII.
+//!
+//! Written layout (invariants):
+//! - `$Entities` holds every entity of [`entity_table`]: tags are `id + 1`
+//!   per dimension; points carry the coordinates of their node (else the
+//!   centre of their bounding box, else the origin); curves, surfaces and
+//!   volumes carry the bounding box of their nodes, their elements' nodes and
+//!   their boundary entities, and their signed boundary tags restricted to
+//!   entities present in the table;
+//! - `$Nodes` has one block per entity owning nodes (parametric = 0); every
+//!   node is in exactly one block, the block of `node.entity`; node tags are
+//!   `index + 1`, so the tags are 1..N (in blocks they need not be
+//!   contiguous, which MSH 4.1 allows);
+//! - `$Elements` has blocks per (element type, entity): type 15 (point) for
+//!   every node on a vertex, then 1 (2-node line), 2 (3-node triangle), 4
+//!   (4-node tetrahedron); element tags are 1..M in file order; within a
+//!   block elements keep their order in the mesh.
+//!
+//! Reading: `$Entities` is parsed loosely (tags and boundaries; physical
+//! tags ignored), `$Nodes`/`$Elements` strictly; element types other than
+//! 1, 2, 4 and 15 are skipped, as are unknown sections. Nodes are ordered by
+//! tag, so a file written here reads back with the same node indices. In MSH
+//! 2.2, where nodes carry no entity, a node on a point element is on that
+//! vertex and the others are inferred (see the crate documentation).
+
+use std::collections::HashMap;
+use std::io::{self, Write};
+
+use bubblemesh_core::mesh::{Element, EntityInfo, Mesh, Node};
+use bubblemesh_core::model::EntityRef;
+use bubblemesh_core::P3;
+
+use crate::text::{as_text, cap, clip, coord, parse_at, Text};
+use crate::{complete_entities, entity_table, infer_node_entities, ParseError, Xyz};
+
+/// Writes `mesh` as MSH 4.1 ASCII. The mesh must satisfy the [`Mesh`]
+/// invariants (element indices in range; [`crate::write`] checks this).
+pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
+    let table = entity_table(mesh);
+    let index: HashMap<EntityRef, usize> = table
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (e.entity, i))
+        .collect();
+    let tag = |e: EntityRef| e.id as u64 + 1;
+    let pos = |i: u32| mesh.nodes[i as usize].pos;
+
+    // Bounding boxes: own nodes, element nodes, then boundary entities in
+    // increasing dimension (so the boundary's boxes are complete).
+    let mut bbox: Vec<Option<(P3, P3)>> = vec![None; table.len()];
+    let grow = |b: &mut Option<(P3, P3)>, p: &P3| match b {
+        None => *b = Some((*p, *p)),
+        Some((lo, hi)) => {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+    };
+    for n in &mesh.nodes {
+        grow(&mut bbox[index[&n.entity]], &n.pos);
+    }
+    for e in &mesh.lines {
+        e.nodes
+            .iter()
+            .for_each(|&v| grow(&mut bbox[index[&e.entity]], &pos(v)));
+    }
+    for e in &mesh.triangles {
+        e.nodes
+            .iter()
+            .for_each(|&v| grow(&mut bbox[index[&e.entity]], &pos(v)));
+    }
+    for e in &mesh.tetrahedra {
+        e.nodes
+            .iter()
+            .for_each(|&v| grow(&mut bbox[index[&e.entity]], &pos(v)));
+    }
+    // Boundary tags that name entities of the table.
+    let boundary: Vec<Vec<i64>> = table
+        .iter()
+        .map(|e| {
+            e.boundary
+                .iter()
+                .map(|&b| b as i64)
+                .filter(|&b| {
+                    e.entity.dim > 0
+                        && b != 0
+                        && index.contains_key(&EntityRef::new(
+                            e.entity.dim - 1,
+                            (b.unsigned_abs() - 1) as u32,
+                        ))
+                })
+                .collect()
+        })
+        .collect();
+    for dim in 1..=3u8 {
+        for (i, e) in table.iter().enumerate() {
+            if e.entity.dim != dim {
+                continue;
+            }
+            for &b in &boundary[i] {
+                let j = index[&EntityRef::new(dim - 1, (b.unsigned_abs() - 1) as u32)];
+                if let Some((lo, hi)) = bbox[j] {
+                    grow(&mut bbox[i], &lo);
+                    grow(&mut bbox[i], &hi);
+                }
+            }
+        }
+    }
+    let mut point_at: HashMap<EntityRef, P3> = HashMap::new();
+    for n in mesh.nodes.iter().filter(|n| n.entity.dim == 0) {
+        point_at.entry(n.entity).or_insert(n.pos);
+    }
+
+    writeln!(w, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
+    writeln!(w, "$Entities")?;
+    let count = |d: u8| table.iter().filter(|e| e.entity.dim == d).count();
+    writeln!(w, "{} {} {} {}", count(0), count(1), count(2), count(3))?;
+    for (i, e) in table.iter().enumerate() {
+        let (lo, hi) = bbox[i].unwrap_or((P3::origin(), P3::origin()));
+        if e.entity.dim == 0 {
+            let p = point_at
+                .get(&e.entity)
+                .copied()
+                .unwrap_or_else(|| P3::from((lo.coords + hi.coords) * 0.5));
+            writeln!(w, "{} {} 0", tag(e.entity), Xyz(&p))?;
+        } else {
+            write!(
+                w,
+                "{} {} {} 0 {}",
+                tag(e.entity),
+                Xyz(&lo),
+                Xyz(&hi),
+                boundary[i].len()
+            )?;
+            for b in &boundary[i] {
+                write!(w, " {b}")?;
+            }
+            writeln!(w)?;
+        }
+    }
+    writeln!(w, "$EndEntities")?;
+
+    // Nodes grouped by entity (stable: index order within a block).
+    let n = mesh.nodes.len();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    order.sort_by_key(|&i| mesh.nodes[i as usize].entity);
+    let node_blocks: Vec<&[u32]> = order
+        .chunk_by(|&a, &b| mesh.nodes[a as usize].entity == mesh.nodes[b as usize].entity)
+        .collect();
+    writeln!(w, "$Nodes")?;
+    writeln!(w, "{} {} {} {}", node_blocks.len(), n, n.min(1), n)?;
+    for block in &node_blocks {
+        let e = mesh.nodes[block[0] as usize].entity;
+        writeln!(w, "{} {} 0 {}", e.dim, tag(e), block.len())?;
+        for &i in *block {
+            writeln!(w, "{}", i as u64 + 1)?;
+        }
+        for &i in *block {
+            writeln!(w, "{}", Xyz(&mesh.nodes[i as usize].pos))?;
+        }
+    }
+    writeln!(w, "$EndNodes")?;
+
+    // Element blocks: (entity, type, element node lists).
+    fn grouped<const N: usize>(elems: &[Element<N>]) -> Vec<(EntityRef, Vec<[u32; N]>)> {
+        let mut idx: Vec<usize> = (0..elems.len()).collect();
+        idx.sort_by_key(|&i| elems[i].entity);
+        idx.chunk_by(|&a, &b| elems[a].entity == elems[b].entity)
+            .map(|run| {
+                (
+                    elems[run[0]].entity,
+                    run.iter().map(|&i| elems[i].nodes).collect(),
+                )
+            })
+            .collect()
+    }
+    let points: Vec<(EntityRef, Vec<[u32; 1]>)> = node_blocks
+        .iter()
+        .filter(|b| mesh.nodes[b[0] as usize].entity.dim == 0)
+        .map(|b| {
+            (
+                mesh.nodes[b[0] as usize].entity,
+                b.iter().map(|&i| [i]).collect(),
+            )
+        })
+        .collect();
+    let lines = grouped(&mesh.lines);
+    let tris = grouped(&mesh.triangles);
+    let tets = grouped(&mesh.tetrahedra);
+    let nblocks = points.len() + lines.len() + tris.len() + tets.len();
+    let nelem = points.iter().map(|b| b.1.len()).sum::<usize>()
+        + mesh.lines.len()
+        + mesh.triangles.len()
+        + mesh.tetrahedra.len();
+    writeln!(w, "$Elements")?;
+    writeln!(w, "{} {} {} {}", nblocks, nelem, nelem.min(1), nelem)?;
+    let mut next_tag = 1u64;
+    fn blocks<W: Write, const N: usize>(
+        w: &mut W,
+        groups: &[(EntityRef, Vec<[u32; N]>)],
+        ty: u32,
+        next_tag: &mut u64,
+    ) -> io::Result<()> {
+        for (e, elems) in groups {
+            writeln!(w, "{} {} {} {}", e.dim, e.id as u64 + 1, ty, elems.len())?;
+            for nodes in elems {
+                write!(w, "{}", next_tag)?;
+                *next_tag += 1;
+                for &v in nodes {
+                    write!(w, " {}", v as u64 + 1)?;
+                }
+                writeln!(w)?;
+            }
+        }
+        Ok(())
+    }
+    blocks(w, &points, 15, &mut next_tag)?;
+    blocks(w, &lines, 1, &mut next_tag)?;
+    blocks(w, &tris, 2, &mut next_tag)?;
+    blocks(w, &tets, 4, &mut next_tag)?;
+    writeln!(w, "$EndElements")?;
+    Ok(())
+}
+
+/// Parses MSH 4.1 or 2.2 ASCII.
+pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
+    let s = as_text(data);
+    let mut t = Text::new(&s, None);
+    let first = t.line("$MeshFormat")?;
+    if first != "$MeshFormat" {
+        return Err(t.err(format!(
+            "not a Gmsh MSH file: expected '$MeshFormat', found '{}'",
+            clip(first)
+        )));
+    }
+    let hdr = t.line_tokens("the version line of $MeshFormat")?;
+    let version = hdr[0];
+    let file_type: i64 = match hdr.get(1) {
+        Some(tok) => parse_at(tok, "the file type (0 = ASCII)", t.lineno())?,
+        None => return Err(t.err("the version line of $MeshFormat has no file type")),
+    };
+    if file_type != 0 {
+        return Err(t.err("binary MSH files are not supported; save as ASCII"));
+    }
+    let v4 = match version {
+        "4.1" => true,
+        v if v == "2" || v.starts_with("2.") => false,
+        v => {
+            return Err(t.err(format!(
+                "unsupported MSH version {} (supported: 4.1 and 2.2 ASCII)",
+                clip(v)
+            )))
+        }
+    };
+    end_section(&mut t, "MeshFormat")?;
+
+    let mut r = Reader::default();
+    while let Some(l) = t.next_line() {
+        let Some(name) = l.strip_prefix('$') else {
+            return Err(t.err(format!(
+                "expected a section name like '$Nodes', found '{}'",
+                clip(l)
+            )));
+        };
+        match (name, v4) {
+            ("Entities", true) => r.entities_41(&mut t)?,
+            ("Nodes", true) => r.nodes_41(&mut t)?,
+            ("Elements", true) => r.elements_41(&mut t)?,
+            ("Nodes", false) => r.nodes_22(&mut t)?,
+            ("Elements", false) => r.elements_22(&mut t)?,
+            _ => skip_section(&mut t, name)?,
+        }
+    }
+    r.finish()
+}
+
+/// Reads the line closing a section, which must be `$End<name>`.
+fn end_section(t: &mut Text, name: &str) -> Result<(), ParseError> {
+    let want = format!("$End{name}");
+    let l = t.line(&want)?;
+    if l != want {
+        return Err(t.err(format!("expected '{want}', found '{}'", clip(l))));
+    }
+    Ok(())
+}
+
+/// Skips to the line `$End<name>`.
+fn skip_section(t: &mut Text, name: &str) -> Result<(), ParseError> {
+    let want = format!("$End{name}");
+    while let Some(l) = t.next_line() {
+        if l == want {
+            return Ok(());
+        }
+    }
+    Err(t.eof(&want))
+}
+
+/// An entity from its dimension and (1-based, 0 tolerated) tag.
+fn entity(t: &Text, dim: i64, tag: i64) -> Result<EntityRef, ParseError> {
+    if !(0..=3).contains(&dim) {
+        return Err(t.err(format!("entity dimension {dim} is not 0..3")));
+    }
+    if !(0..=u32::MAX as i64).contains(&tag) {
+        return Err(t.err(format!("entity tag {tag} is out of range")));
+    }
+    Ok(EntityRef::new(dim as u8, (tag.max(1) - 1) as u32))
+}
+
+/// Gmsh element type → (number of nodes, dimension) for the types we keep.
+fn element_kind(ty: i64) -> Option<(usize, u8)> {
+    match ty {
+        15 => Some((1, 0)),
+        1 => Some((2, 1)),
+        2 => Some((3, 2)),
+        4 => Some((4, 3)),
+        _ => None,
+    }
+}
+
+#[derive(Default)]
+struct Reader {
+    entities: Vec<EntityInfo>,
+    /// (tag, node, entity known from the file).
+    nodes: Vec<(u64, Node, bool)>,
+    /// Node tag → index, once `$Nodes` is read.
+    map: Option<TagMap>,
+    mesh: Mesh,
+}
+
+enum TagMap {
+    /// Tags are exactly 1..=N.
+    Dense(usize),
+    Sparse(HashMap<u64, u32>),
+}
+
+impl Reader {
+    fn entities_41(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        let h = t.line_tokens("the $Entities counts")?;
+        if h.len() < 4 {
+            return Err(t.err("the $Entities counts line needs 4 numbers"));
+        }
+        let mut counts = [0usize; 4];
+        for (k, c) in counts.iter_mut().enumerate() {
+            *c = parse_at(h[k], "an entity count", t.lineno())?;
+        }
+        for (dim, &count) in counts.iter().enumerate() {
+            for _ in 0..count {
+                let tok = t.line_tokens("an entity line")?;
+                let tag: i64 = parse_at(tok[0], "an entity tag", t.lineno())?;
+                let e = entity(t, dim as i64, tag)?;
+                // Loose: a malformed boundary list leaves the boundary empty.
+                let boundary = if dim == 0 {
+                    vec![]
+                } else {
+                    boundary_tags(&tok[1..]).unwrap_or_default()
+                };
+                self.entities.push(EntityInfo {
+                    entity: e,
+                    boundary,
+                    name: None,
+                });
+            }
+        }
+        skip_section(t, "Entities")
+    }
+
+    fn nodes_41(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        self.check_once("Nodes", t)?;
+        let h = t.line_tokens("the $Nodes header")?;
+        if h.len() < 2 {
+            return Err(t.err("the $Nodes header needs 4 numbers"));
+        }
+        let nblocks: usize = parse_at(h[0], "the number of node blocks", t.lineno())?;
+        let total: usize = parse_at(h[1], "the number of nodes", t.lineno())?;
+        self.nodes.reserve(cap(total));
+        for _ in 0..nblocks {
+            let b = t.line_tokens("a node block header")?;
+            if b.len() < 4 {
+                return Err(t.err("a node block header needs 4 numbers"));
+            }
+            let ln = t.lineno();
+            let dim: i64 = parse_at(b[0], "an entity dimension", ln)?;
+            let etag: i64 = parse_at(b[1], "an entity tag", ln)?;
+            let parametric: i64 = parse_at(b[2], "the parametric flag", ln)?;
+            let count: usize = parse_at(b[3], "the number of nodes in the block", ln)?;
+            let e = entity(t, dim, etag)?;
+            let start = self.nodes.len();
+            for _ in 0..count {
+                let tag: u64 = t.num("a node tag")?;
+                self.nodes.push((tag, node(P3::origin(), e), true));
+            }
+            for k in 0..count {
+                let l = t.line_tokens("node coordinates")?;
+                if l.len() < 3 {
+                    return Err(t.err("node coordinates need x y z"));
+                }
+                let ln = t.lineno();
+                let p = P3::new(coord(l[0], ln)?, coord(l[1], ln)?, coord(l[2], ln)?);
+                let n = &mut self.nodes[start + k].1;
+                n.pos = p;
+                if parametric != 0 {
+                    for (j, tok) in l[3..].iter().take(2).enumerate() {
+                        n.params[j] = parse_at(tok, "a node parameter", ln)?;
+                    }
+                }
+            }
+        }
+        if self.nodes.len() != total {
+            return Err(t.err(format!(
+                "the $Nodes header announces {total} nodes but the blocks hold {}",
+                self.nodes.len()
+            )));
+        }
+        end_section(t, "Nodes")?;
+        self.build_map(t)
+    }
+
+    fn nodes_22(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        self.check_once("Nodes", t)?;
+        let total: usize = t.num("the number of nodes")?;
+        self.nodes.reserve(cap(total));
+        for _ in 0..total {
+            let l = t.line_tokens("a node line")?;
+            if l.len() < 4 {
+                return Err(t.err("a node line needs: tag x y z"));
+            }
+            let ln = t.lineno();
+            let tag: u64 = parse_at(l[0], "a node tag", ln)?;
+            let p = P3::new(coord(l[1], ln)?, coord(l[2], ln)?, coord(l[3], ln)?);
+            self.nodes.push((tag, node(p, EntityRef::new(0, 0)), false));
+        }
+        end_section(t, "Nodes")?;
+        self.build_map(t)
+    }
+
+    fn check_once(&self, what: &str, t: &Text) -> Result<(), ParseError> {
+        if self.map.is_some() {
+            return Err(t.err(format!("a second ${what} section")));
+        }
+        Ok(())
+    }
+
+    /// Orders nodes by tag and builds the tag → index map.
+    fn build_map(&mut self, t: &Text) -> Result<(), ParseError> {
+        self.nodes.sort_by_key(|n| n.0);
+        if let Some(w) = self.nodes.windows(2).find(|w| w[0].0 == w[1].0) {
+            return Err(t.err(format!("node tag {} appears twice in $Nodes", w[0].0)));
+        }
+        if self.nodes.len() > u32::MAX as usize {
+            return Err(t.err("too many nodes"));
+        }
+        let dense = self
+            .nodes
+            .iter()
+            .enumerate()
+            .all(|(i, n)| n.0 == i as u64 + 1);
+        self.map = Some(if dense {
+            TagMap::Dense(self.nodes.len())
+        } else {
+            TagMap::Sparse(
+                self.nodes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| (n.0, i as u32))
+                    .collect(),
+            )
+        });
+        Ok(())
+    }
+
+    /// The index of a node tag token.
+    fn node_index(&self, tok: &str, t: &Text) -> Result<u32, ParseError> {
+        let tag: u64 = parse_at(tok, "a node tag", t.lineno())?;
+        let i = match self.map.as_ref() {
+            Some(TagMap::Dense(n)) => (tag >= 1 && tag <= *n as u64).then(|| (tag - 1) as u32),
+            Some(TagMap::Sparse(m)) => m.get(&tag).copied(),
+            None => return Err(t.err("$Elements comes before $Nodes")),
+        };
+        i.ok_or_else(|| {
+            t.err(format!(
+                "element refers to node tag {tag}, which $Nodes does not define"
+            ))
+        })
+    }
+
+    /// Stores one element of a kept type.
+    fn push(&mut self, nodes: &[u32], e: EntityRef, from_22: bool) {
+        match nodes.len() {
+            1 => {
+                // A point element: in MSH 2.2 it gives the node its vertex.
+                if from_22 {
+                    let n = &mut self.nodes[nodes[0] as usize];
+                    if !n.2 {
+                        n.1.entity = e;
+                        n.2 = true;
+                    }
+                }
+            }
+            2 => self.mesh.lines.push(Element {
+                nodes: [nodes[0], nodes[1]],
+                entity: e,
+            }),
+            3 => self.mesh.triangles.push(Element {
+                nodes: [nodes[0], nodes[1], nodes[2]],
+                entity: e,
+            }),
+            _ => self.mesh.tetrahedra.push(Element {
+                nodes: [nodes[0], nodes[1], nodes[2], nodes[3]],
+                entity: e,
+            }),
+        }
+    }
+
+    fn elements_41(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        let h = t.line_tokens("the $Elements header")?;
+        let nblocks: usize = parse_at(h[0], "the number of element blocks", t.lineno())?;
+        let mut idx = Vec::with_capacity(4);
+        for _ in 0..nblocks {
+            let b = t.line_tokens("an element block header")?;
+            if b.len() < 4 {
+                return Err(t.err("an element block header needs 4 numbers"));
+            }
+            let ln = t.lineno();
+            let dim: i64 = parse_at(b[0], "an entity dimension", ln)?;
+            let etag: i64 = parse_at(b[1], "an entity tag", ln)?;
+            let ty: i64 = parse_at(b[2], "an element type", ln)?;
+            let count: usize = parse_at(b[3], "the number of elements in the block", ln)?;
+            let e = entity(t, dim, etag)?;
+            let Some((k, _)) = element_kind(ty) else {
+                for _ in 0..count {
+                    t.line("an element line")?;
+                }
+                continue;
+            };
+            for _ in 0..count {
+                let l = t.line_tokens("an element line")?;
+                if l.len() < 1 + k {
+                    return Err(t.err(format!(
+                        "an element of type {ty} needs a tag and {k} node tags, found {} numbers",
+                        l.len()
+                    )));
+                }
+                idx.clear();
+                for tok in &l[1..1 + k] {
+                    idx.push(self.node_index(tok, t)?);
+                }
+                self.push(&idx, e, false);
+            }
+        }
+        end_section(t, "Elements")
+    }
+
+    fn elements_22(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        let total: usize = t.num("the number of elements")?;
+        let mut idx = Vec::with_capacity(4);
+        for _ in 0..total {
+            let l = t.line_tokens("an element line")?;
+            let ln = t.lineno();
+            if l.len() < 3 {
+                return Err(t.err("an element line needs: tag type ntags tags... nodes..."));
+            }
+            let ty: i64 = parse_at(l[1], "an element type", ln)?;
+            let ntags: usize = parse_at(l[2], "the number of tags", ln)?;
+            let Some((k, dim)) = element_kind(ty) else {
+                continue;
+            };
+            if l.len() < 3 + ntags + k {
+                return Err(t.err(format!(
+                    "an element of type {ty} with {ntags} tags needs {} numbers, found {}",
+                    3 + ntags + k,
+                    l.len()
+                )));
+            }
+            // Elementary (geometrical) tag: the second tag; else the first.
+            let etag: i64 = match ntags {
+                0 => 1,
+                1 => parse_at(l[3], "a physical tag", ln)?,
+                _ => parse_at(l[4], "an elementary tag", ln)?,
+            };
+            let e = entity(t, dim as i64, etag)?;
+            idx.clear();
+            for tok in &l[3 + ntags..3 + ntags + k] {
+                idx.push(self.node_index(tok, t)?);
+            }
+            self.push(&idx, e, true);
+        }
+        end_section(t, "Elements")
+    }
+
+    fn finish(self) -> Result<Mesh, ParseError> {
+        if self.map.is_none() {
+            return Err(ParseError::new("the file has no $Nodes section"));
+        }
+        let mut mesh = self.mesh;
+        let known: Vec<bool> = self.nodes.iter().map(|n| n.2).collect();
+        mesh.nodes = self.nodes.into_iter().map(|n| n.1).collect();
+        infer_node_entities(&mut mesh, &known);
+        mesh.entities = self.entities;
+        complete_entities(&mut mesh);
+        Ok(mesh)
+    }
+}
+
+fn node(pos: P3, entity: EntityRef) -> Node {
+    Node {
+        pos,
+        entity,
+        params: [0.0, 0.0],
+    }
+}
+
+/// Boundary tags from the tokens after an entity tag in MSH 4.1 `$Entities`:
+/// 6 bounding-box numbers, physical tags, then bounding entities.
+fn boundary_tags(tok: &[&str]) -> Option<Vec<i32>> {
+    let nphys: usize = tok.get(6)?.parse().ok()?;
+    let nb: usize = tok.get(7 + nphys)?.parse().ok()?;
+    tok.get(8 + nphys..8 + nphys + nb)?
+        .iter()
+        .map(|s| s.parse().ok())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn boundary_tags_are_found_after_physical_tags() {
+        let tok: Vec<&str> = "0 0 0 1 1 1 2 7 8 3 1 -2 3".split(' ').collect();
+        assert_eq!(boundary_tags(&tok), Some(vec![1, -2, 3]));
+        assert_eq!(boundary_tags(&tok[..8]), None);
+    }
+}
