@@ -17,7 +17,9 @@ use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 pub enum ConnectError {
     #[error("two mesh nodes coincide at (u,v) = ({0}, {1})")]
     Duplicate(f64, f64),
-    #[error("constraint segments cross near (u,v) = ({0}, {1}) (boundary or embedded edges intersect)")]
+    #[error(
+        "constraint segments cross near (u,v) = ({0}, {1}) (boundary or embedded edges intersect)"
+    )]
     Crossing(f64, f64),
     #[error("a coordinate is not finite or too large for the triangulation: {0}")]
     Insertion(String),
@@ -54,7 +56,11 @@ pub fn triangulate(
     if cdt.num_vertices() != uv.len() {
         // find one duplicate to name it
         let mut sorted: Vec<usize> = (0..uv.len()).collect();
-        sorted.sort_by(|&a, &b| uv[a][0].total_cmp(&uv[b][0]).then(uv[a][1].total_cmp(&uv[b][1])));
+        sorted.sort_by(|&a, &b| {
+            uv[a][0]
+                .total_cmp(&uv[b][0])
+                .then(uv[a][1].total_cmp(&uv[b][1]))
+        });
         let dup = sorted
             .windows(2)
             .find(|w| uv[w[0]] == uv[w[1]])
@@ -67,6 +73,13 @@ pub fn triangulate(
     }
     let bset: std::collections::HashSet<(usize, usize)> =
         boundary.iter().map(|s| (s[0], s[1])).collect();
+    // most edges touch no boundary vertex: test a flag before hashing
+    let mut on_b = vec![false; uv.len()];
+    for s in boundary {
+        on_b[s[0]] = true;
+        on_b[s[1]] = true;
+    }
+    let is_seg = |a: usize, b: usize| on_b[a] && on_b[b] && bset.contains(&(a, b));
     let nf = cdt.num_all_faces();
     // per spade face index: vertices, neighbours across each edge, label
     let mut verts = vec![[usize::MAX; 3]; nf];
@@ -78,10 +91,15 @@ pub fn triangulate(
         for (k, e) in f.adjacent_edges().iter().enumerate() {
             let (a, b) = (e.from().fix().index(), e.to().fix().index());
             verts[fi][k] = a;
-            nbr[fi][k] = e.rev().face().as_inner().map(|g| g.fix().index()).unwrap_or(usize::MAX);
-            if bset.contains(&(a, b)) {
+            nbr[fi][k] = e
+                .rev()
+                .face()
+                .as_inner()
+                .map(|g| g.fix().index())
+                .unwrap_or(usize::MAX);
+            if is_seg(a, b) {
                 label[fi] = 1;
-            } else if bset.contains(&(b, a)) && label[fi] == 0 {
+            } else if label[fi] == 0 && is_seg(b, a) {
                 label[fi] = -1;
             }
         }
@@ -96,7 +114,7 @@ pub fn triangulate(
                 continue;
             }
             let (a, b) = (verts[fi][k], verts[fi][(k + 1) % 3]);
-            if bset.contains(&(a, b)) || bset.contains(&(b, a)) {
+            if is_seg(a, b) || is_seg(b, a) {
                 continue;
             }
             label[g] = label[fi];
@@ -192,7 +210,14 @@ mod classification {
     /// test in floating point may not.
     #[test]
     fn sliver_outside_a_nearly_straight_side_is_dropped() {
-        let uv = [[0.0, 0.0], [0.5, 1e-17], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]];
+        let uv = [
+            [0.0, 0.0],
+            [0.5, 1e-17],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.5, 0.5],
+        ];
         let b = [[0, 1], [1, 2], [2, 3], [3, 4], [4, 0]];
         let t = triangulate(&uv, &b, &b, |_| true).unwrap();
         let area: f64 = t
@@ -213,10 +238,25 @@ mod classification {
     #[test]
     fn hole_is_removed() {
         let uv = [
-            [0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [0.0, 3.0],
-            [1.0, 1.0], [1.0, 2.0], [2.0, 2.0], [2.0, 1.0], // hole, clockwise
+            [0.0, 0.0],
+            [3.0, 0.0],
+            [3.0, 3.0],
+            [0.0, 3.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [2.0, 2.0],
+            [2.0, 1.0], // hole, clockwise
         ];
-        let b = [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4]];
+        let b = [
+            [0, 1],
+            [1, 2],
+            [2, 3],
+            [3, 0],
+            [4, 5],
+            [5, 6],
+            [6, 7],
+            [7, 4],
+        ];
         let t = triangulate(&uv, &b, &b, |_| true).unwrap();
         let area: f64 = t
             .iter()

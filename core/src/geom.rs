@@ -137,7 +137,10 @@ impl Plane {
 
 impl Surface for Plane {
     fn domain(&self) -> ([f64; 2], [f64; 2]) {
-        ([f64::NEG_INFINITY, f64::INFINITY], [f64::NEG_INFINITY, f64::INFINITY])
+        (
+            [f64::NEG_INFINITY, f64::INFINITY],
+            [f64::NEG_INFINITY, f64::INFINITY],
+        )
     }
     fn point(&self, u: f64, v: f64) -> P3 {
         self.origin + self.e1 * u + self.e2 * v

@@ -118,7 +118,10 @@ impl Model {
     /// A human name of an entity for messages: `face 2 ("plate")`.
     pub fn describe(&self, e: EntityRef) -> String {
         let name = match e.dim {
-            0 => self.vertices.get(e.id as usize).and_then(|v| v.name.clone()),
+            0 => self
+                .vertices
+                .get(e.id as usize)
+                .and_then(|v| v.name.clone()),
             1 => self.edges.get(e.id as usize).and_then(|v| v.name.clone()),
             2 => self.faces.get(e.id as usize).and_then(|v| v.name.clone()),
             _ => self.volumes.get(e.id as usize).and_then(|v| v.name.clone()),

@@ -60,10 +60,16 @@ impl Spacing for Constant {
 pub enum ExprError {
     #[error("cannot parse spacing expression '{expr}': {reason}")]
     Parse { expr: String, reason: String },
-    #[error("spacing expression '{expr}' uses unknown variable '{var}' (only x, y, z are defined)")]
+    #[error(
+        "spacing expression '{expr}' uses unknown variable '{var}' (only x, y, z are defined)"
+    )]
     UnknownVariable { expr: String, var: String },
     #[error("spacing expression '{expr}' is {value} at {at}; a spacing must be finite and > 0")]
-    NotPositive { expr: String, value: f64, at: String },
+    NotPositive {
+        expr: String,
+        value: f64,
+        at: String,
+    },
 }
 
 /// d(x, y, z) given as an expression parsed at run time with `exmex`.
@@ -92,11 +98,10 @@ impl Expr {
     pub fn parse(text: &str) -> Result<Self, ExprError> {
         use exmex::prelude::*;
         let normalised = text.replace("**", "^");
-        let flat =
-            exmex::parse::<f64>(&normalised).map_err(|e| ExprError::Parse {
-                expr: text.to_string(),
-                reason: e.to_string(),
-            })?;
+        let flat = exmex::parse::<f64>(&normalised).map_err(|e| ExprError::Parse {
+            expr: text.to_string(),
+            reason: e.to_string(),
+        })?;
         let mut slots = Vec::new();
         for v in flat.var_names() {
             let slot = match v.as_str() {
@@ -137,7 +142,9 @@ impl Expr {
         for (k, s) in self.slots.iter().enumerate() {
             vals[k] = p[*s];
         }
-        self.flat.eval(&vals[..self.slots.len()]).unwrap_or(f64::NAN)
+        self.flat
+            .eval(&vals[..self.slots.len()])
+            .unwrap_or(f64::NAN)
     }
 
     /// Checks d > 0 and finite at the given sample points.

@@ -63,7 +63,11 @@ mod tests {
     fn stiffness_matches_eq_4_3_4() {
         assert_eq!(equivalent_stiffness(1), 4.0);
         assert!((equivalent_stiffness(2) - 7.464_101_615).abs() < 1e-8);
-        assert!((equivalent_stiffness(3) - 10.241_582_3).abs() < 1e-6);
+        assert!(
+            (equivalent_stiffness(3) - (4.0 * 3f64.sqrt() + 4.0 * 6f64.sqrt() + 16.0) / 3.0).abs()
+                < 1e-12
+        );
+        assert!((equivalent_stiffness(3) - 10.908_7).abs() < 1e-4);
     }
 
     #[test]

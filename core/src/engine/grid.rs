@@ -37,7 +37,11 @@ impl Grid {
         }
         let ext = hi - lo;
         let max_cells = (8 * pos.len()).max(64) as f64;
-        let mut h = if h.is_finite() && h > 0.0 { h } else { ext.norm().max(1.0) };
+        let mut h = if h.is_finite() && h > 0.0 {
+            h
+        } else {
+            ext.norm().max(1.0)
+        };
         loop {
             let cells: f64 = (0..3).map(|k| (ext[k] / h).floor() + 1.0).product();
             if cells <= max_cells {

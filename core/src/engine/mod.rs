@@ -15,6 +15,7 @@ pub mod constraint;
 pub mod dynamics;
 pub mod force;
 pub mod grid;
+pub mod improve;
 pub mod placement;
 pub mod population;
 pub mod region;
@@ -39,6 +40,9 @@ use system::System;
 /// Seed a boundary layer before the quadtree lattice (measured: no gain on
 /// cases A–C with the current relaxation, so off; kept for surfaces).
 const APEX_LAYER: bool = false;
+/// Rounds of edge relaxation and Delaunay flips after connection
+/// ([`improve`]).
+const IMPROVE_ROUNDS: usize = 6;
 
 /// Progress of a long run, for progress bars.
 #[derive(Clone, Copy, Debug)]
@@ -205,7 +209,8 @@ pub fn mesh_model(
     }
     if dim >= 3 {
         return Err(MeshError::Unsupported(
-            "volume meshing (--dim 3) is not implemented yet; mesh the boundary with --dim 2".into(),
+            "volume meshing (--dim 3) is not implemented yet; mesh the boundary with --dim 2"
+                .into(),
         ));
     }
     let mut mesh = Mesh::default();
@@ -223,7 +228,10 @@ pub fn mesh_model(
     for (i, v) in model.vertices.iter().enumerate() {
         let e = EntityRef::new(0, i as u32);
         if !(v.point.x.is_finite() && v.point.y.is_finite() && v.point.z.is_finite()) {
-            return Err(MeshError::Invalid(format!("{} has a non-finite position", model.describe(e))));
+            return Err(MeshError::Invalid(format!(
+                "{} has a non-finite position",
+                model.describe(e)
+            )));
         }
         let d = spacing.spacing(&SpacingQuery {
             point: v.point,
@@ -262,8 +270,17 @@ pub fn mesh_model(
     if dim >= 2 {
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
-            let fr = mesh_face(model, fi, spacing, opts, &edge_nodes, &mut mesh, &node_d, &mut report.timings)
-                .map_err(|x| x.within(model.describe(e)))?;
+            let fr = mesh_face(
+                model,
+                fi,
+                spacing,
+                opts,
+                &edge_nodes,
+                &mut mesh,
+                &node_d,
+                &mut report.timings,
+            )
+            .map_err(|x| x.within(model.describe(e)))?;
             report.faces.push(fr);
         }
     }
@@ -288,13 +305,17 @@ fn mesh_edge(
     let curve: &dyn Curve = edge.curve.as_ref();
     let (t0, t1) = (edge.t0, edge.t1);
     if !(t0.is_finite() && t1.is_finite()) || t0 == t1 {
-        return Err(MeshError::Invalid(format!("parameter range [{t0}, {t1}] is empty or not finite")));
+        return Err(MeshError::Invalid(format!(
+            "parameter range [{t0}, {t1}] is empty or not finite"
+        )));
     }
     for k in 0..=8 {
         let t = t0 + (t1 - t0) * k as f64 / 8.0;
         let p = curve.point(t);
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-            return Err(MeshError::Invalid(format!("the curve is not finite at t = {t}")));
+            return Err(MeshError::Invalid(format!(
+                "the curve is not finite at t = {t}"
+            )));
         }
     }
     let closed = edge.start == edge.end;
@@ -350,7 +371,10 @@ fn relax_chain(
     }
     let h = dynamics::time_step(1);
     let c = dynamics::damping(1);
-    let mut t: Vec<f64> = std::iter::once(t0).chain(ts.iter().cloned()).chain(std::iter::once(t1)).collect();
+    let mut t: Vec<f64> = std::iter::once(t0)
+        .chain(ts.iter().cloned())
+        .chain(std::iter::once(t1))
+        .collect();
     let mut p: Vec<P3> = t.iter().map(|&s| curve.point(s)).collect();
     let mut d = vec![0.0; n + 2];
     d[0] = d_start;
@@ -446,9 +470,9 @@ fn mesh_face(
         Ok(l)
     };
     let chain = |u: &crate::model::EdgeUse| -> Result<Vec<u32>, MeshError> {
-        let ids = edge_nodes
-            .get(u.edge as usize)
-            .ok_or_else(|| MeshError::Invalid(format!("a loop uses edge {} which does not exist", u.edge)))?;
+        let ids = edge_nodes.get(u.edge as usize).ok_or_else(|| {
+            MeshError::Invalid(format!("a loop uses edge {} which does not exist", u.edge))
+        })?;
         Ok(if u.forward {
             ids.clone()
         } else {
@@ -477,15 +501,24 @@ fn mesh_face(
             return Err(MeshError::Invalid(format!("loop {li} is not closed")));
         }
         ids.pop();
-        let locals: Vec<usize> = ids.iter().map(|&id| add_fixed(id, &mut hint)).collect::<Result<_, _>>()?;
+        let locals: Vec<usize> = ids
+            .iter()
+            .map(|&id| add_fixed(id, &mut hint))
+            .collect::<Result<_, _>>()?;
         for k in 0..locals.len() {
             segments.push([locals[k], locals[(k + 1) % locals.len()]]);
         }
         loop_locals.push(locals);
     }
     for &ee in &face.embedded_edges {
-        let c = chain(&crate::model::EdgeUse { edge: ee, forward: true })?;
-        let locals: Vec<usize> = c.iter().map(|&id| add_fixed(id, &mut hint)).collect::<Result<_, _>>()?;
+        let c = chain(&crate::model::EdgeUse {
+            edge: ee,
+            forward: true,
+        })?;
+        let locals: Vec<usize> = c
+            .iter()
+            .map(|&id| add_fixed(id, &mut hint))
+            .collect::<Result<_, _>>()?;
         for w in locals.windows(2) {
             segments.push([w[0], w[1]]);
         }
@@ -540,52 +573,78 @@ fn mesh_face(
 
     // boundary layer: one bubble over each boundary segment, at the apex of
     // the near-equilateral triangle on it (see `placement::apex_seeds`)
-    let fixed_pos: Vec<P3> = fixed_ids.iter().map(|&id| mesh.nodes[id as usize].pos).collect();
+    let fixed_pos: Vec<P3> = fixed_ids
+        .iter()
+        .map(|&id| mesh.nodes[id as usize].pos)
+        .collect();
     let fixed_d: Vec<f64> = fixed_ids.iter().map(|&id| node_d[id as usize]).collect();
     let apex = if APEX_LAYER {
-        placement::apex_seeds(&carrier, &boundary, &fixed_pos, &fixed_uv, &fixed_d, &mut d_at)?
+        placement::apex_seeds(
+            &carrier, &boundary, &fixed_pos, &fixed_uv, &fixed_d, &mut d_at,
+        )?
     } else {
         Vec::new()
     };
-    // keep the apex seeds and then the lattice seeds that do not crowd an
-    // already accepted bubble (closer than 0.75 r0)
-    let mut taken_pos = fixed_pos.clone();
-    let mut taken_d = fixed_d.clone();
-    let mut accepted: Vec<placement::Seed> = Vec::new();
-    {
-        let dmax = fixed_d.iter().cloned().chain(apex.iter().map(|s| s.d)).chain(seeds.iter().map(|s| s.d)).fold(0.0f64, f64::max);
-        let dmin = fixed_d.iter().cloned().chain(apex.iter().map(|s| s.d)).fold(f64::INFINITY, f64::min);
-        let mut hash: std::collections::HashMap<[i64; 3], Vec<usize>> = std::collections::HashMap::new();
-        let cell = dmax.max(dmin);
-        let key = |p: &P3| [0, 1, 2].map(|k| (p[k] / cell).floor() as i64);
-        for (k, p) in taken_pos.iter().enumerate() {
-            hash.entry(key(p)).or_default().push(k);
-        }
-        for s in apex.into_iter().chain(seeds) {
-            let c = key(&s.pos);
-            let mut ok = true;
-            'outer: for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        if let Some(v) = hash.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
-                            for &k in v {
-                                if (taken_pos[k] - s.pos).norm() < 0.75 * 0.5 * (s.d + taken_d[k]) {
-                                    ok = false;
-                                    break 'outer;
-                                }
-                            }
-                        }
+    // keep the apex seeds, then the lattice seeds, that do not crowd a
+    // fixed bubble or an earlier accepted seed (closer than 0.75 r0); seeds
+    // of one uniform lattice cannot crowd each other, so that check is only
+    // made for a varying spacing
+    let all: Vec<placement::Seed> = apex.into_iter().chain(seeds).collect();
+    let accepted = {
+        let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
+        let fixed_grid = grid::Grid::new(&fixed_pos, 1.5 * dmin_fixed);
+        let crowds = |p: &P3,
+                      d: f64,
+                      pos: &[P3],
+                      ds: &[f64],
+                      g: &grid::Grid,
+                      reach: f64,
+                      skip: &dyn Fn(usize) -> bool| {
+            let mut hit = false;
+            g.query(p, 0.75 * 0.5 * (d + reach), |j| {
+                let j = j as usize;
+                if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
+                    hit = true;
+                }
+            });
+            hit
+        };
+        let mut keep: Vec<bool> = all
+            .iter()
+            .map(|s| {
+                !crowds(
+                    &s.pos,
+                    s.d,
+                    &fixed_pos,
+                    &fixed_d,
+                    &fixed_grid,
+                    dmax_fixed,
+                    &|_| false,
+                )
+            })
+            .collect();
+        if spacing.constant().is_none() || APEX_LAYER {
+            let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
+            let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
+            let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
+            let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
+            let g = grid::Grid::new(&spos, 1.5 * dmin);
+            for i in 0..all.len() {
+                if keep[i] {
+                    let earlier_kept = |j: usize| !(j < i && keep[j]);
+                    if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
+                        keep[i] = false;
                     }
                 }
             }
-            if ok {
-                hash.entry(c).or_default().push(taken_pos.len());
-                taken_pos.push(s.pos);
-                taken_d.push(s.d);
-                accepted.push(s);
-            }
         }
-    }
+        all.into_iter()
+            .zip(keep)
+            .filter(|(_, k)| *k)
+            .map(|(s, _)| s)
+            .collect::<Vec<_>>()
+    };
     let seeds = accepted;
     let mut sys = System {
         carrier,
@@ -632,8 +691,13 @@ fn mesh_face(
 
     // connection
     let t3 = Instant::now();
-    let keep = |c: [f64; 2]| sys.carrier.region.contains(c[0], c[1]) && surface.trim(c[0], c[1]).unwrap_or(true);
-    let tris = connect::triangulate(&sys.params, &segments, &boundary, keep)?;
+    let keep = |c: [f64; 2]| {
+        sys.carrier.region.contains(c[0], c[1]) && surface.trim(c[0], c[1]).unwrap_or(true)
+    };
+    let mut tris = connect::triangulate(&sys.params, &segments, &boundary, keep)?;
+    if !opts.fast && IMPROVE_ROUNDS > 0 {
+        improve::improve(&mut sys, &mut tris, &segments, IMPROVE_ROUNDS)?;
+    }
     let first_new = mesh.nodes.len() as u32;
     let nf = sys.n_fixed;
     for i in nf..sys.n() {

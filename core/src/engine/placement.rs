@@ -8,8 +8,6 @@
 //!
 //! All placement is O(n) in the number of bubbles placed.
 
-use std::collections::HashMap;
-
 use crate::geom::{Curve, P3};
 
 use super::constraint::Carrier;
@@ -85,7 +83,9 @@ pub fn equidistribute_edge(
     // a small fraction of the local spacing
     let mut m = 256usize;
     loop {
-        let ts: Vec<f64> = (0..=m).map(|k| t0 + (t1 - t0) * k as f64 / m as f64).collect();
+        let ts: Vec<f64> = (0..=m)
+            .map(|k| t0 + (t1 - t0) * k as f64 / m as f64)
+            .collect();
         let mut w = Vec::with_capacity(m + 1);
         for &t in &ts {
             let p = curve.point(t);
@@ -98,7 +98,9 @@ pub fn equidistribute_edge(
         }
         let total = cum[m];
         if !total.is_finite() {
-            return Err(MeshError::Invalid("weighted edge length is not finite".into()));
+            return Err(MeshError::Invalid(
+                "weighted edge length is not finite".into(),
+            ));
         }
         // refine until there are at least 16 samples per piece
         if (m as f64) < 16.0 * total && m < (1 << 26) {
@@ -194,10 +196,16 @@ pub fn oblique_quadtree<C: Carrier>(
         p: P3,
         d: f64,
     }
-    let mut seeds: HashMap<(i64, i64), Seed> = HashMap::new();
+    // leaf corners as lattice keys at the finest level; deduplicated below
+    let mut corners: Vec<(i64, i64)> = Vec::new();
     let mut stack: Vec<(i64, i64, u32)> = vec![(0, 0, 0)];
     while let Some((i, j, lev)) = stack.pop() {
-        let cuv = [at(i, j, lev), at(i + 1, j, lev), at(i + 1, j + 1, lev), at(i, j + 1, lev)];
+        let cuv = [
+            at(i, j, lev),
+            at(i + 1, j, lev),
+            at(i + 1, j + 1, lev),
+            at(i, j + 1, lev),
+        ];
         // OUT: the cell's box misses the entity's box
         let (mut clo, mut chi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for c in &cuv {
@@ -221,9 +229,9 @@ pub fn oblique_quadtree<C: Carrier>(
                     let d = d_at(&p, uv)?;
                     cs.push(Corner { p, d });
                 }
-                [(0, 1), (1, 2), (2, 3), (1, 3)].iter().any(|&(a, b)| {
-                    (cs[a].p - cs[b].p).norm() > SPLIT * 0.5 * (cs[a].d + cs[b].d)
-                })
+                [(0, 1), (1, 2), (2, 3), (1, 3)]
+                    .iter()
+                    .any(|&(a, b)| (cs[a].p - cs[b].p).norm() > SPLIT * 0.5 * (cs[a].d + cs[b].d))
             }
         };
         if split && lev < MAX_LEVEL {
@@ -235,30 +243,33 @@ pub fn oblique_quadtree<C: Carrier>(
             continue;
         }
         for (ci, cj) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
-            let k = key(ci, cj, lev);
-            if seeds.contains_key(&k) {
-                continue;
-            }
-            let uv = at(ci, cj, lev);
-            if !carrier.contains(uv) {
-                continue;
-            }
-            let p = carrier.point(uv);
-            let d = d_at(&p, uv)?;
-            seeds.insert(k, Seed { pos: p, params: uv, d });
-            if seeds.len() > MAX_BUBBLES_PER_ENTITY {
-                return Err(MeshError::TooManyBubbles {
-                    limit: MAX_BUBBLES_PER_ENTITY,
-                });
-            }
+            corners.push(key(ci, cj, lev));
+        }
+        if corners.len() > 4 * MAX_BUBBLES_PER_ENTITY {
+            return Err(MeshError::TooManyBubbles {
+                limit: MAX_BUBBLES_PER_ENTITY,
+            });
         }
     }
-    let mut out: Vec<((i64, i64), Seed)> = seeds.into_iter().collect();
-    // deterministic order (HashMap iteration is not)
-    out.sort_by_key(|(k, _)| (k.1, k.0));
-    Ok(out.into_iter().map(|(_, s)| s).collect())
+    // row-major order (v, then u), each corner once
+    corners.sort_unstable_by_key(|&(i, j)| (j, i));
+    corners.dedup();
+    let mut out = Vec::with_capacity(corners.len());
+    for (ki, kj) in corners {
+        let uv = at(ki, kj, MAX_LEVEL);
+        if !carrier.contains(uv) {
+            continue;
+        }
+        let p = carrier.point(uv);
+        let d = d_at(&p, uv)?;
+        out.push(Seed {
+            pos: p,
+            params: uv,
+            d,
+        });
+    }
+    Ok(out)
 }
-
 /// Boundary-layer seeds: for each boundary segment a→b (face on its left) one
 /// bubble at the apex of the triangle whose sides to a and b are the stable
 /// distance r0 (an equilateral triangle when the spacing is uniform).

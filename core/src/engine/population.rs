@@ -51,12 +51,16 @@ pub const FIT: f64 = 0.85;
 pub const FIT_OPEN: f64 = 0.6;
 
 /// One round of population control on `sys`, given its current pairs and
-/// grid. Returns (deleted, added).
+/// grid. With `focus`, only the focused bubbles are deleted or seed new
+/// ones (the pairs must then cover every pair touching a focused bubble).
+/// Returns (deleted, added).
 pub fn control<C: Carrier>(
     sys: &mut System<'_, C>,
     pairs: &[Pair],
     grid: &Grid,
+    focus: Option<&[bool]>,
 ) -> Result<(usize, usize), MeshError> {
+    let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
     // adjacency in compressed rows
@@ -84,7 +88,9 @@ pub fn control<C: Carrier>(
     }
 
     // --- deletion: an independent set of the most crowded bubbles
-    let mut cand: Vec<usize> = (nf..n).filter(|&i| excess[i] > EXCESS).collect();
+    let mut cand: Vec<usize> = (nf..n)
+        .filter(|&i| focused(i) && excess[i] > EXCESS)
+        .collect();
     cand.sort_by(|&a, &b| excess[b].total_cmp(&excess[a]));
     let mut deleted = vec![false; n];
     let mut blocked = vec![false; n];
@@ -103,12 +109,17 @@ pub fn control<C: Carrier>(
     // --- insertion
     let mut new_bubbles: Vec<(P3, [f64; 2], f64)> = Vec::new();
     let mut new_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    let cell_h = sys.d.iter().cloned().fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
+    let cell_h = sys
+        .d
+        .iter()
+        .cloned()
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
     let key = |p: &P3| [0, 1, 2].map(|k| (p[k] / cell_h).floor() as i64);
     let dmax = cell_h;
     let mut angles: Vec<f64> = Vec::new();
     for i in 0..n {
-        if deleted[i] {
+        if deleted[i] || !focused(i) {
             continue;
         }
         let (pi, di) = (sys.pos[i], sys.d[i]);
@@ -158,8 +169,21 @@ pub fn control<C: Carrier>(
                 continue;
             };
             let dc = sys.spacing_at(&pc, uv)?;
-            if spot_is_free(sys, grid, &new_bubbles, &new_cells, &key, &pc, dc, dmax.max(dc), fit) {
-                new_cells.entry(key(&pc)).or_default().push(new_bubbles.len());
+            if spot_is_free(
+                sys,
+                grid,
+                &new_bubbles,
+                &new_cells,
+                &key,
+                &pc,
+                dc,
+                dmax.max(dc),
+                fit,
+            ) {
+                new_cells
+                    .entry(key(&pc))
+                    .or_default()
+                    .push(new_bubbles.len());
                 new_bubbles.push((pc, uv, dc));
                 break;
             }

@@ -63,7 +63,7 @@ impl Default for RelaxSettings {
         RelaxSettings {
             integrator: Integrator::Euler,
             max_steps: 600,
-            tol: 2e-4,
+            tol: 1e-3,
             population_every: 8,
             population_until: 0.75,
             record_energy: true,
@@ -135,13 +135,20 @@ impl<'a, C: Carrier> System<'a, C> {
     /// Bubble i searches radius 1.5·d_i and keeps neighbours j with
     /// d_j < d_i (ties by index): a pair's cutoff 1.5·(d_i+d_j)/2 never
     /// exceeds 1.5·max(d_i, d_j), so the larger bubble always finds it.
-    pub fn pairs(&self, grid: &Grid, out: &mut Vec<Pair>) {
+    /// With `mask`, only pairs of two masked bubbles.
+    pub fn pairs(&self, grid: &Grid, out: &mut Vec<Pair>, mask: Option<&[bool]>) {
         out.clear();
         let nf = self.n_fixed;
         for i in 0..self.n() {
+            if mask.is_some_and(|m| !m[i]) {
+                continue;
+            }
             let (pi, di) = (self.pos[i], self.d[i]);
             grid.query(&pi, force::CUTOFF * di, |j| {
                 let j = j as usize;
+                if mask.is_some_and(|m| !m[j]) {
+                    return;
+                }
                 let dj = self.d[j];
                 if !(dj < di || (dj == di && j > i)) || (i < nf && j < nf) {
                     return;
@@ -173,10 +180,6 @@ impl<'a, C: Carrier> System<'a, C> {
             });
         }
     }
-
-
-
-
 
     /// Neighbour lists with a skin (Verlet lists): every pair closer than
     /// (1.5 + SKIN)·r0, both directions, in compressed rows. Reused until a
@@ -295,7 +298,8 @@ impl<'a, C: Carrier> System<'a, C> {
         let mut stamp = vec![0u32; self.n()];
         let mut cand: Vec<u32> = Vec::new();
         let mut forces: Vec<V3> = Vec::new();
-        let energy_stride = (self.n() / 20_000).max(1);
+        let energy_stride = (self.n() / 5_000).max(1);
+        let mut last_energy: Option<f64> = None;
         for step in 1..=s.max_steps {
             if self.n() == self.n_fixed {
                 stats.converged = true;
@@ -342,7 +346,8 @@ impl<'a, C: Carrier> System<'a, C> {
                         let f = forces[k];
                         let v = self.vel[i];
                         let fscale = K0 * self.d[i];
-                        if f.norm() < SLEEP_FORCE * fscale && v.norm() * h < SLEEP_MOVE * self.d[i] {
+                        if f.norm() < SLEEP_FORCE * fscale && v.norm() * h < SLEEP_MOVE * self.d[i]
+                        {
                             self.vel[i] = V3::zeros();
                             continue;
                         }
@@ -385,20 +390,39 @@ impl<'a, C: Carrier> System<'a, C> {
             stats.steps = step;
             stats.final_max_move = max_move;
             progress(step);
-
             let population_open = step <= pop_until && quiet_checks < 3;
             if population_open && step % s.population_every == 0 {
+                // the first round looks at every bubble; later rounds only at
+                // the bubbles still moving (a sleeping bubble is balanced)
                 let grid = self.grid();
                 let mut pairs = Vec::new();
-                self.pairs(&grid, &mut pairs);
-                let (del, add) = population::control(self, &pairs, &grid)?;
+                let focus: Option<Vec<bool>> = (step > s.population_every).then(|| {
+                    let mut f = vec![false; self.n()];
+                    for &i in &awake {
+                        f[i as usize] = true;
+                    }
+                    f
+                });
+                let near: Option<Vec<bool>> = focus.as_ref().map(|f| {
+                    let mut e = f.clone();
+                    for &i in &awake {
+                        for &j in nb.of(i as usize) {
+                            e[j as usize] = true;
+                        }
+                    }
+                    e
+                });
+                self.pairs(&grid, &mut pairs, near.as_deref());
+                let (del, add) = population::control(self, &pairs, &grid, focus.as_deref())?;
                 stats.deleted += del;
                 stats.added += add;
+
                 if del + add == 0 {
                     quiet_checks += 1;
                 } else {
                     quiet_checks = 0;
                     last_pop_step = step;
+                    last_energy = None;
                     nb = self.neighbours();
                     stamp = vec![0u32; self.n()];
                     // everything near a change must move again
@@ -410,6 +434,26 @@ impl<'a, C: Carrier> System<'a, C> {
                 nb = self.neighbours();
             }
             let settled_since_pop = step >= last_pop_step + s.population_every;
+            // energy plateau: the potential energy fell by less than
+            // PLATEAU·k0·Σd² over the last PLATEAU_WINDOW steps (bubbles still
+            // creeping, e.g. a dislocation gliding along a boundary, no longer
+            // change the mesh they make)
+            let mut plateau = false;
+            if settled_since_pop
+                && step % PLATEAU_WINDOW == 0
+                && (!population_open || quiet_checks >= 1)
+            {
+                let u = self.potential(&nb);
+                let scale: f64 = self.d[self.n_fixed..].iter().map(|d| K0 * d * d).sum();
+                if let Some(prev) = last_energy {
+                    plateau = prev - u < PLATEAU * scale;
+                }
+                last_energy = Some(u);
+            }
+            if plateau {
+                stats.converged = true;
+                break;
+            }
             if (awake.is_empty() || max_move < s.tol)
                 && settled_since_pop
                 && (!population_open || quiet_checks >= 1)
@@ -481,10 +525,14 @@ impl<'a, C: Carrier> System<'a, C> {
 /// Extra reach of the neighbour lists beyond the force cutoff, in units of
 /// the stable distance.
 const SKIN: f64 = 0.3;
+/// Steps between energy-plateau checks.
+const PLATEAU_WINDOW: usize = 25;
+/// Relative potential-energy drop per window below which stage 2 stops.
+const PLATEAU: f64 = 1e-5;
 /// A bubble sleeps when its net force is below this fraction of k0·d ...
-const SLEEP_FORCE: f64 = 2e-4;
+const SLEEP_FORCE: f64 = 1e-3;
 /// ... and its last move below this fraction of d.
-const SLEEP_MOVE: f64 = 2e-5;
+const SLEEP_MOVE: f64 = 1e-4;
 
 /// Verlet neighbour lists in compressed rows.
 pub struct Neighbours {

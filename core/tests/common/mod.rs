@@ -49,15 +49,31 @@ impl Curve for Circle {
 pub fn polygon_loop(m: &mut Model, pts: &[[f64; 2]]) -> Loop {
     let first = m.vertices.len() as u32;
     for p in pts {
-        m.vertices.push(Vertex { point: P3::new(p[0], p[1], 0.0), name: None });
+        m.vertices.push(Vertex {
+            point: P3::new(p[0], p[1], 0.0),
+            name: None,
+        });
     }
     let mut lp = Loop::default();
     for k in 0..pts.len() {
         let a = first + k as u32;
         let b = first + ((k + 1) % pts.len()) as u32;
-        let curve = Arc::new(Segment(m.vertices[a as usize].point, m.vertices[b as usize].point));
-        m.edges.push(Edge { curve, t0: 0.0, t1: 1.0, start: a, end: b, name: None });
-        lp.edges.push(EdgeUse { edge: m.edges.len() as u32 - 1, forward: true });
+        let curve = Arc::new(Segment(
+            m.vertices[a as usize].point,
+            m.vertices[b as usize].point,
+        ));
+        m.edges.push(Edge {
+            curve,
+            t0: 0.0,
+            t1: 1.0,
+            start: a,
+            end: b,
+            name: None,
+        });
+        lp.edges.push(EdgeUse {
+            edge: m.edges.len() as u32 - 1,
+            forward: true,
+        });
     }
     lp
 }
@@ -65,7 +81,10 @@ pub fn polygon_loop(m: &mut Model, pts: &[[f64; 2]]) -> Loop {
 /// A circle loop run clockwise (a hole).
 pub fn circle_hole(m: &mut Model, c: [f64; 2], r: f64) -> Loop {
     let v = m.vertices.len() as u32;
-    m.vertices.push(Vertex { point: P3::new(c[0] + r, c[1], 0.0), name: None });
+    m.vertices.push(Vertex {
+        point: P3::new(c[0] + r, c[1], 0.0),
+        name: None,
+    });
     m.edges.push(Edge {
         curve: Arc::new(Circle(P3::new(c[0], c[1], 0.0), r)),
         t0: 0.0,
@@ -74,7 +93,12 @@ pub fn circle_hole(m: &mut Model, c: [f64; 2], r: f64) -> Loop {
         end: v,
         name: None,
     });
-    Loop { edges: vec![EdgeUse { edge: m.edges.len() as u32 - 1, forward: false }] }
+    Loop {
+        edges: vec![EdgeUse {
+            edge: m.edges.len() as u32 - 1,
+            forward: false,
+        }],
+    }
 }
 
 pub fn face(m: &mut Model, loops: Vec<Loop>) {
