@@ -569,7 +569,11 @@ fn mesh_face(
         });
         check_spacing(d, *p, fe)
     };
-    let seeds = placement::oblique_quadtree(&carrier, lo, hi, uniform_leaf, &mut d_at)?;
+    let d_outside = fixed_ids
+        .iter()
+        .map(|&id| node_d[id as usize])
+        .fold(f64::INFINITY, f64::min);
+    let seeds = placement::oblique_quadtree(&carrier, lo, hi, uniform_leaf, d_outside, &mut d_at)?;
 
     // boundary layer: one bubble over each boundary segment, at the apex of
     // the near-equilateral triangle on it (see `placement::apex_seeds`)

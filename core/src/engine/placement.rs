@@ -148,12 +148,14 @@ pub struct Seed {
 /// (d/√2, √2·d] instead of (d/2, d], so the stage-1 density is right on
 /// average instead of up to four times too high. With a uniform spacing
 /// `uniform` = Some(d/scale) sets the root size to d·2^k so the leaves are
-/// exactly d: the hexagonal lattice of Fig. 4.1a.
+/// exactly d: the hexagonal lattice of Fig. 4.1a. Corners outside the
+/// entity use `d_outside` (the caller passes the smallest boundary spacing).
 pub fn oblique_quadtree<C: Carrier>(
     carrier: &C,
     lo: [f64; 2],
     hi: [f64; 2],
     uniform_leaf: Option<f64>,
+    d_outside: f64,
     d_at: &mut dyn FnMut(&P3, [f64; 2]) -> Result<f64, MeshError>,
 ) -> Result<Vec<Seed>, MeshError> {
     const SPLIT: f64 = std::f64::consts::SQRT_2;
@@ -226,7 +228,9 @@ pub fn oblique_quadtree<C: Carrier>(
                 let mut cs = Vec::with_capacity(4);
                 for uv in cuv {
                     let p = carrier.point(uv);
-                    let d = d_at(&p, uv)?;
+                    // the spacing is only asked inside the entity (it may be
+                    // undefined outside); outside corners use `d_outside`
+                    let d = if carrier.contains(uv) { d_at(&p, uv)? } else { d_outside };
                     cs.push(Corner { p, d });
                 }
                 [(0, 1), (1, 2), (2, 3), (1, 3)]
