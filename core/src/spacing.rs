@@ -72,14 +72,20 @@ pub enum ExprError {
     },
 }
 
+// exmex's default number literal has no exponent; users write 1e-3.
+use exmex::MatchLiteral;
+exmex::literal_matcher_from_pattern!(SciNumber, r"^(\.?[0-9]+(\.[0-9]*)?([eE][+-]?[0-9]+)?)");
+
+type Flat = exmex::FlatEx<f64, exmex::FloatOpsFactory<f64>, SciNumber>;
+
 /// d(x, y, z) given as an expression parsed at run time with `exmex`.
 ///
-/// Syntax: numbers, `x y z`, `+ - * / ^` (also `**`), parentheses, and the
+/// Syntax: numbers (also `1e-3`), `x y z`, `+ - * / ^` (also `**`), parentheses, and the
 /// functions `sqrt abs min max exp log ln sin cos tan` (`log` is the natural
 /// logarithm), constants `PI` and `E`.
 pub struct Expr {
     text: String,
-    flat: exmex::FlatEx<f64>,
+    flat: Flat,
     /// For each variable of the parsed expression (exmex orders them
     /// alphabetically), which of x, y, z it is.
     slots: Vec<usize>,
@@ -98,7 +104,7 @@ impl Expr {
     pub fn parse(text: &str) -> Result<Self, ExprError> {
         use exmex::prelude::*;
         let normalised = text.replace("**", "^");
-        let flat = exmex::parse::<f64>(&normalised).map_err(|e| ExprError::Parse {
+        let flat = Flat::parse(&normalised).map_err(|e| ExprError::Parse {
             expr: text.to_string(),
             reason: e.to_string(),
         })?;
@@ -240,6 +246,14 @@ mod tests {
     fn python_power_is_accepted() {
         let e = Expr::parse("0.01 + 0.2*((x-0.5)**2 + (y-0.5)**2)").unwrap();
         assert!((e.spacing(&q(1.0, 1.0)) - 0.11).abs() < 1e-12);
+    }
+
+    #[test]
+    fn scientific_notation_is_accepted() {
+        assert_eq!(Expr::parse("1e-3").unwrap().constant(), Some(1e-3));
+        assert_eq!(Expr::parse("2.5E+2*1").unwrap().constant(), Some(250.0));
+        let e = Expr::parse("1e-2 + 0.5e1*x").unwrap();
+        assert!((e.spacing(&q(0.1, 0.0)) - 0.51).abs() < 1e-12);
     }
 
     #[test]

@@ -45,7 +45,11 @@ fn hexagon_is_the_perfect_lattice() {
     assert_eq!(mesh.nodes.len(), 331);
     assert_eq!(mesh.triangles.len(), 600);
     let q = common::radius_ratios(&mesh);
-    assert!(q.iter().all(|&q| q > 0.9995), "min q {}", q.iter().cloned().fold(1.0, f64::min));
+    assert!(
+        q.iter().all(|&q| q > 0.9995),
+        "min q {}",
+        q.iter().cloned().fold(1.0, f64::min)
+    );
     let v = interior_valences(&mesh);
     assert_eq!(v.len(), 331 - 60);
     assert!(v.iter().all(|&v| v == 6));
@@ -57,7 +61,12 @@ fn hexagon_is_the_perfect_lattice() {
 fn benchmark_cases_keep_quality_and_spacing() {
     let cases = [
         (common::square(), "0.02", 0.99, 0.70),
-        (common::square(), "0.01 + 0.2*((x-0.5)^2 + (y-0.5)^2)", 0.975, 0.65),
+        (
+            common::square(),
+            "0.01 + 0.2*((x-0.5)^2 + (y-0.5)^2)",
+            0.975,
+            0.65,
+        ),
         (
             common::plate_two_holes(),
             "0.02 + 0.1*max(min(sqrt((x-0.5)^2+(y-0.5)^2), sqrt((x-1.5)^2+(y-0.5)^2)) - 0.2, 0)",
@@ -74,7 +83,10 @@ fn benchmark_cases_keep_quality_and_spacing() {
         let (band, mean) = common::spacing_conformance(&mesh, |p| s.eval(p));
         assert!(q_mean >= q_mean_min, "{expr}: mean q {q_mean}");
         assert!(q_min >= q_min_min, "{expr}: min q {q_min}");
-        assert!(band >= 0.995, "{expr}: only {band} of edges within [1/√2, √2]");
+        assert!(
+            band >= 0.995,
+            "{expr}: only {band} of edges within [1/√2, √2]"
+        );
         assert!((mean - 1.0).abs() < 0.05, "{expr}: mean L/d {mean}");
     }
 }
@@ -94,8 +106,18 @@ fn stage_two_improves_stage_one() {
         q.iter().sum::<f64>() / q.len() as f64
     };
     let minq = |m: &Mesh| common::radius_ratios(m).into_iter().fold(1.0, f64::min);
-    assert!(mean(&m2) > mean(&m1) + 0.01, "{} vs {}", mean(&m2), mean(&m1));
-    assert!(minq(&m2) > minq(&m1) + 0.2, "{} vs {}", minq(&m2), minq(&m1));
+    assert!(
+        mean(&m2) > mean(&m1) + 0.01,
+        "{} vs {}",
+        mean(&m2),
+        mean(&m1)
+    );
+    assert!(
+        minq(&m2) > minq(&m1) + 0.2,
+        "{} vs {}",
+        minq(&m2),
+        minq(&m1)
+    );
 }
 
 /// Edge bubbles stay on their curve (eq. 4.5.1): every node of the holes'
@@ -107,7 +129,11 @@ fn edge_bubbles_stay_on_their_curve() {
     let mut on_circles = 0;
     for n in &mesh.nodes {
         if n.entity.dim == 1 && (n.entity.id == 4 || n.entity.id == 5) {
-            let c = if n.entity.id == 4 { (0.5, 0.5) } else { (1.5, 0.5) };
+            let c = if n.entity.id == 4 {
+                (0.5, 0.5)
+            } else {
+                (1.5, 0.5)
+            };
             let r = ((n.pos.x - c.0).powi(2) + (n.pos.y - c.1).powi(2)).sqrt();
             assert!((r - 0.2).abs() < 1e-12, "node at radius {r}");
             on_circles += 1;
@@ -120,8 +146,16 @@ fn edge_bubbles_stay_on_their_curve() {
 /// boundary of each face is made of its edges' lines.
 #[test]
 fn nodes_and_elements_record_their_entities() {
-    let (mesh, _) = mesh_model(&common::plate_two_holes(), &Constant(0.05), &Options::default()).unwrap();
-    assert!(mesh.triangles.iter().all(|t| t.entity == EntityRef::new(2, 0)));
+    let (mesh, _) = mesh_model(
+        &common::plate_two_holes(),
+        &Constant(0.05),
+        &Options::default(),
+    )
+    .unwrap();
+    assert!(mesh
+        .triangles
+        .iter()
+        .all(|t| t.entity == EntityRef::new(2, 0)));
     let mut edge_count: HashMap<(u32, u32), u32> = HashMap::new();
     for t in &mesh.triangles {
         for k in 0..3 {
@@ -134,8 +168,15 @@ fn nodes_and_elements_record_their_entities() {
         .iter()
         .map(|l| (l.nodes[0].min(l.nodes[1]), l.nodes[0].max(l.nodes[1])))
         .collect();
-    let boundary: HashSet<(u32, u32)> = edge_count.iter().filter(|(_, &c)| c == 1).map(|(e, _)| *e).collect();
-    assert_eq!(boundary, lines, "the triangles' boundary must be exactly the edge mesh");
+    let boundary: HashSet<(u32, u32)> = edge_count
+        .iter()
+        .filter(|(_, &c)| c == 1)
+        .map(|(e, _)| *e)
+        .collect();
+    assert_eq!(
+        boundary, lines,
+        "the triangles' boundary must be exactly the edge mesh"
+    );
     // the mesh covers the plate minus the holes
     let area: f64 = mesh
         .triangles
@@ -147,13 +188,10 @@ fn nodes_and_elements_record_their_entities() {
         .sum();
     let exact = 2.0 - 2.0 * std::f64::consts::PI * 0.04;
     assert!((area - exact).abs() < 0.01, "area {area} vs {exact}");
-    assert!(mesh
-        .triangles
-        .iter()
-        .all(|t| {
-            let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
-            (p[1] - p[0]).cross(&(p[2] - p[0])).z > 0.0
-        }));
+    assert!(mesh.triangles.iter().all(|t| {
+        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        (p[1] - p[0]).cross(&(p[2] - p[0])).z > 0.0
+    }));
 }
 
 fn square_system<'a>(spacing: &'a Constant) -> System<'a, OnFace<'static>> {
@@ -256,7 +294,9 @@ fn population_control_removes_an_overlap() {
 fn bad_spacing_is_reported() {
     for expr in ["x - 0.5", "0*x", "sqrt(x - 2)"] {
         let s = Expr::parse(expr).unwrap();
-        let err = mesh_model(&common::square(), &s, &Options::default()).unwrap_err().to_string();
+        let err = mesh_model(&common::square(), &s, &Options::default())
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("spacing"), "{expr}: {err}");
     }
 }

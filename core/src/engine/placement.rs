@@ -16,7 +16,7 @@ use super::MeshError;
 /// Upper bound on bubbles one entity may receive; a spacing that asks for
 /// more is almost certainly a unit mistake and is reported instead of
 /// exhausting memory.
-pub const MAX_BUBBLES_PER_ENTITY: usize = 50_000_000;
+pub const MAX_BUBBLES_PER_ENTITY: usize = 10_000_000;
 
 /// Recursive bisection of `[t0, t1]` (§4.1.1): a sub-interval is split at
 /// its parametric midpoint while the chord between its end bubbles is longer
@@ -184,6 +184,15 @@ pub fn oblique_quadtree<C: Carrier>(
         }
         None => need,
     };
+    // a uniform spacing tells the count up front (eq. 4.7.2 on the box)
+    if let Some(l) = uniform_leaf {
+        let estimate = (w * h) / (0.5 * s3 * l * l);
+        if estimate > MAX_BUBBLES_PER_ENTITY as f64 {
+            return Err(MeshError::TooManyBubbles {
+                limit: MAX_BUBBLES_PER_ENTITY,
+            });
+        }
+    }
     // lattice point (i, j) at level `lev` -> (u,v)
     let at = |i: i64, j: i64, lev: u32| -> [f64; 2] {
         let l = l0 / f64::from(1u32 << lev.min(31));
@@ -230,7 +239,11 @@ pub fn oblique_quadtree<C: Carrier>(
                     let p = carrier.point(uv);
                     // the spacing is only asked inside the entity (it may be
                     // undefined outside); outside corners use `d_outside`
-                    let d = if carrier.contains(uv) { d_at(&p, uv)? } else { d_outside };
+                    let d = if carrier.contains(uv) {
+                        d_at(&p, uv)?
+                    } else {
+                        d_outside
+                    };
                     cs.push(Corner { p, d });
                 }
                 [(0, 1), (1, 2), (2, 3), (1, 3)]
@@ -249,7 +262,7 @@ pub fn oblique_quadtree<C: Carrier>(
         for (ci, cj) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
             corners.push(key(ci, cj, lev));
         }
-        if corners.len() > 4 * MAX_BUBBLES_PER_ENTITY {
+        if corners.len() > 2 * MAX_BUBBLES_PER_ENTITY {
             return Err(MeshError::TooManyBubbles {
                 limit: MAX_BUBBLES_PER_ENTITY,
             });

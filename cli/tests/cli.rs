@@ -1,0 +1,283 @@
+//! The command line as a user drives it: real domain files in, real mesh
+//! files out, read back and checked.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_bubblemesh"))
+}
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../examples")
+        .join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("run bubblemesh")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn meshes_a_domain_into_every_format_and_reads_it_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = example("plate_two_holes.toml");
+    for ext in ["msh", "vtu", "stl", "obj", "mesh"] {
+        let out = dir.path().join(format!("plate.{ext}"));
+        let o = run(&[
+            "mesh",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "0.05",
+            "--dim",
+            "2",
+        ]);
+        assert!(o.status.success(), "{ext}: {}", stderr(&o));
+        let mesh = bubblemesh_io::read(&out).unwrap();
+        assert!(
+            mesh.triangles.len() > 500,
+            "{ext}: {} triangles",
+            mesh.triangles.len()
+        );
+        // area of the plate minus the holes, to the chord error of the holes
+        let area: f64 = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+                0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm()
+            })
+            .sum();
+        let exact = 2.0 - 2.0 * std::f64::consts::PI * 0.04;
+        assert!((area - exact).abs() < 0.01, "{ext}: area {area}");
+    }
+}
+
+#[test]
+fn report_holds_timings_energy_and_quality() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sq.msh");
+    let rep = dir.path().join("rep.json");
+    let o = run(&[
+        "mesh",
+        example("square.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "0.01 + 0.2*((x-0.5)^2 + (y-0.5)^2)",
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+    let face = &v["engine"]["faces"][0];
+    let energy = face["relax"]["energy"].as_array().unwrap();
+    assert!(energy.len() > 10);
+    let first = energy[0]["total"].as_f64().unwrap();
+    let last = energy.last().unwrap()["total"].as_f64().unwrap();
+    assert!(last < first, "energy must fall: {first} -> {last}");
+    assert!(v["engine"]["timings"]["total_s"].as_f64().unwrap() > 0.0);
+    let q = v["quality"]["triangles"]["q_mean"].as_f64().unwrap();
+    assert!(q > 0.97, "q_mean {q}");
+    let band = v["quality"]["spacing"]["frac_within_sqrt2"]
+        .as_f64()
+        .unwrap();
+    assert!(band > 0.995, "band {band}");
+}
+
+/// Thesis Fig. 1.14: internal constraint curves and points are in the mesh.
+#[test]
+fn constraint_edges_and_points_are_in_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.msh");
+    let input = example("constrained.toml");
+    let o = run(&[
+        "mesh",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "0.05",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let model = bubblemesh_analytic::read_domain(&input).unwrap();
+    let mesh = bubblemesh_io::read(&out).unwrap();
+    let mut tri_edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t.nodes[k], t.nodes[(k + 1) % 3]);
+            *tri_edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let face = &model.faces[0];
+    assert!(!face.embedded_edges.is_empty() && !face.embedded_vertices.is_empty());
+    let embedded: Vec<u32> = face.embedded_edges.clone();
+    let mut checked = 0;
+    for l in &mesh.lines {
+        if embedded.contains(&l.entity.id) && l.entity.dim == 1 {
+            let key = (l.nodes[0].min(l.nodes[1]), l.nodes[0].max(l.nodes[1]));
+            // an embedded edge is inside the face: two triangles on it
+            assert_eq!(
+                tri_edges.get(&key),
+                Some(&2),
+                "constraint segment {key:?} missing"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 5);
+    for &v in &face.embedded_vertices {
+        let p = model.vertices[v as usize].point;
+        let found = mesh.nodes.iter().any(|n| (n.pos - p).norm() < 1e-12);
+        assert!(found, "constraint point {p:?} is not a node");
+    }
+}
+
+#[test]
+fn quality_command_reads_any_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("h.vtu");
+    let o = run(&[
+        "mesh",
+        example("hexagon.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "0.1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = dir.path().join("q.json");
+    let o = run(&[
+        "quality",
+        out.to_str().unwrap(),
+        "--size",
+        "0.1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["triangles"]["count"].as_u64(), Some(600));
+    assert!(v["triangles"]["q_min"].as_f64().unwrap() > 0.9995);
+}
+
+#[test]
+fn default_size_is_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d.msh");
+    let o = run(&[
+        "mesh",
+        example("square.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no --size given"), "{}", stderr(&o));
+}
+
+/// Every failure exits 1 with a message naming the problem and leaves no
+/// output file behind.
+#[test]
+fn bad_input_gives_a_clear_error_and_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.msh");
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        "format = \"bubblemesh-domain 1\"\n[[face]]\nouter = { polygon = [[0,0],[1,0]] }\n",
+    )
+    .unwrap();
+    let garbage = dir.path().join("garbage.toml");
+    std::fs::write(&garbage, "\u{0}\u{1}not toml at all [[[").unwrap();
+    let sq = example("square.toml");
+    let sq = sq.to_str().unwrap();
+    let xyz = dir.path().join("x.xyz");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "mesh",
+                "/nonexistent/part.toml",
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            "part.toml",
+        ),
+        (
+            vec!["mesh", bad.to_str().unwrap(), "-o", out.to_str().unwrap()],
+            "bad.toml",
+        ),
+        (
+            vec![
+                "mesh",
+                garbage.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            "garbage.toml",
+        ),
+        (
+            vec!["mesh", sq, "-o", out.to_str().unwrap(), "--size", "-0.1"],
+            "spacing",
+        ),
+        (
+            vec![
+                "mesh",
+                sq,
+                "-o",
+                out.to_str().unwrap(),
+                "--size",
+                "0.1 + (x",
+            ],
+            "0.1 + (x",
+        ),
+        (
+            vec!["mesh", sq, "-o", out.to_str().unwrap(), "--size", "0.1 + w"],
+            "'w'",
+        ),
+        (
+            vec!["mesh", sq, "-o", out.to_str().unwrap(), "--size", "x - 0.5"],
+            "spacing",
+        ),
+        (
+            vec!["mesh", sq, "-o", out.to_str().unwrap(), "--dim", "3"],
+            "highest dimension",
+        ),
+        (
+            vec!["mesh", sq, "-o", out.to_str().unwrap(), "--size", "1e-9"],
+            "bubbles",
+        ),
+        (
+            vec!["mesh", sq, "-o", xyz.to_str().unwrap(), "--size", "0.1"],
+            "xyz",
+        ),
+        (
+            vec!["mesh", "part.step", "-o", out.to_str().unwrap()],
+            "STEP",
+        ),
+    ];
+    for (args, needle) in cases {
+        let o = run(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(1),
+            "{args:?} should fail: {}",
+            stderr(&o)
+        );
+        let e = stderr(&o);
+        assert!(
+            e.contains(needle),
+            "{args:?}: message {e:?} should name {needle:?}"
+        );
+        assert!(!e.contains("panicked"), "{args:?}: {e}");
+        assert!(!out.exists(), "{args:?} left an output file");
+    }
+}
