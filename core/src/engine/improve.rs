@@ -19,6 +19,10 @@
 //!   a boundary or embedded edge; so the result is again the constrained
 //!   Delaunay triangulation of the moved bubbles without a global rebuild.
 //!
+//! - **lifting the worst**: the few bubbles at corners of triangles still
+//!   below [`LIFT_Q`] are moved (pattern search) to maximise the smallest
+//!   radius ratio around them, followed by Delaunay flips again.
+//!
 //! Valence-driven flips were tried and dropped: a five/seven pair is stable
 //! under flips (every flip that fixes the seven makes two new sevens), so
 //! they changed nothing on cases A–C.
@@ -74,6 +78,12 @@ pub fn improve<C: Carrier>(
         .collect();
     for _ in 0..rounds {
         let moved = relax_edges(sys, tris, 10)?;
+        if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
+            break;
+        }
+    }
+    for _ in 0..rounds {
+        let moved = lift_worst(sys, tris)?;
         if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
             break;
         }
@@ -234,6 +244,85 @@ fn try_flip<C: Carrier>(
     inc.row(c).push(tj as u32);
     inc.row(d).push(ti as u32);
     true
+}
+
+/// Triangles below this radius ratio have their free corners moved to
+/// raise the worst incident triangle ([`lift_worst`]).
+pub const LIFT_Q: f64 = 0.9;
+
+/// For each free bubble at a corner of a triangle below [`LIFT_Q`], a
+/// pattern search in its tangent plane (8 directions, step halved 10 times
+/// from 0.15 d) for the position that maximises the smallest radius ratio of
+/// its triangles. Only the few bubbles around poor triangles move, so the
+/// edge lengths elsewhere keep what the packing gave them. Returns the
+/// bubbles moved.
+fn lift_worst<C: Carrier>(
+    sys: &mut System<'_, C>,
+    tris: &[[usize; 3]],
+) -> Result<Vec<usize>, MeshError> {
+    let n = sys.n();
+    let nf = sys.n_fixed;
+    let mut incident: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut poor = vec![false; n];
+    for (ti, t) in tris.iter().enumerate() {
+        let q = radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]);
+        for &v in t {
+            incident[v].push(ti);
+            if q < LIFT_Q {
+                poor[v] = true;
+            }
+        }
+    }
+    let mut moved = Vec::new();
+    for i in nf..n {
+        if !poor[i] {
+            continue;
+        }
+        let worst_at = |sys: &System<'_, C>, p: &P3, uv: [f64; 2]| -> f64 {
+            let mut w = f64::INFINITY;
+            for &ti in &incident[i] {
+                let t = tris[ti];
+                let at = |x: usize| if x == i { *p } else { sys.pos[x] };
+                let atuv = |x: usize| if x == i { uv } else { sys.params[x] };
+                if orient_uv(atuv(t[0]), atuv(t[1]), atuv(t[2])) <= 0.0 {
+                    return -1.0;
+                }
+                w = w.min(radius_ratio(&at(t[0]), &at(t[1]), &at(t[2])));
+            }
+            w
+        };
+        let mut best = worst_at(sys, &sys.pos[i], sys.params[i]);
+        let start = best;
+        let mut step = 0.15 * sys.d[i];
+        for _ in 0..10 {
+            let (t1, t2) = sys.carrier.frame(sys.params[i]);
+            let mut improved = false;
+            for k in 0..8 {
+                let a = k as f64 * std::f64::consts::FRAC_PI_4;
+                let dir = t1 * a.cos() + t2 * a.sin();
+                let Some((p, uv)) = sys.carrier.advance(sys.params[i], &(dir * step)) else {
+                    continue;
+                };
+                let w = worst_at(sys, &p, uv);
+                if w > best + 1e-12 {
+                    best = w;
+                    sys.pos[i] = p;
+                    sys.params[i] = uv;
+                    improved = true;
+                }
+            }
+            if !improved {
+                step *= 0.5;
+            }
+        }
+        if best > start {
+            if sys.spacing.constant().is_none() {
+                sys.d[i] = sys.spacing_at(&sys.pos[i], sys.params[i])?;
+            }
+            moved.push(i);
+        }
+    }
+    Ok(moved)
 }
 
 /// Relaxation along mesh edges with the linear force of eq. 4.2.1; a move
