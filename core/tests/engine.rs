@@ -228,6 +228,7 @@ fn square_system<'a>(spacing: &'a Constant) -> System<'a, OnFace<'static>> {
         vel: vec![V3::zeros(); nf],
         d: vec![d; nf],
         fixed_ids: (0..nf as u32).collect(),
+        pressure: 1.0,
     }
 }
 

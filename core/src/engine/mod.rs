@@ -660,6 +660,7 @@ fn mesh_face(
         vel: vec![V3::zeros(); fixed_ids.len()],
         d: fixed_d,
         fixed_ids,
+        pressure: system::PRESSURE,
     };
     for s in seeds {
         sys.push_free(s.pos, s.params, s.d);

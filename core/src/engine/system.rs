@@ -29,6 +29,9 @@ pub struct System<'a, C: Carrier> {
     pub d: Vec<f64>,
     /// Global node ids of the fixed bubbles.
     pub fixed_ids: Vec<u32>,
+    /// Factor on the stable distance in the force: the packing is held
+    /// slightly compressed ([`PRESSURE`]).
+    pub pressure: f64,
 }
 
 /// Result of the stage-2 relaxation.
@@ -236,7 +239,7 @@ impl<'a, C: Carrier> System<'a, C> {
             let j = j as usize;
             let delta = pi - self.pos[j];
             let r = delta.norm();
-            let r0 = 0.5 * (di + self.d[j]);
+            let r0 = 0.5 * (di + self.d[j]) * self.pressure;
             if r > 0.0 && r < force::CUTOFF * r0 {
                 f += delta * (force::magnitude(r, r0, K0) / r);
             } else if r == 0.0 && i > j {
@@ -521,6 +524,15 @@ impl<'a, C: Carrier> System<'a, C> {
         Ok(max_move)
     }
 }
+
+/// Stage 2 packs with the force's zero at 1.05·r0 instead of r0, so the
+/// free bubbles are slightly compressed against the fixed boundary (as
+/// DistMesh's "Fscale"). The pressure pushes bubbles into gaps and out of
+/// dislocations, so the packing anneals better; population control and the
+/// edge relaxation after connection still use r0, so the mesh keeps the
+/// requested spacing. Measured with `bench/run_2d.py`: min radius ratio on
+/// cases B/C from 0.83/0.80 to 0.90/0.89 at equal mean.
+pub const PRESSURE: f64 = 1.05;
 
 /// Extra reach of the neighbour lists beyond the force cutoff, in units of
 /// the stable distance.
