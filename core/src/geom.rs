@@ -97,6 +97,19 @@ pub trait Surface: Send + Sync + std::fmt::Debug {
     /// (u,v) of the point of the surface nearest to `p`, searched from `hint`
     /// when given. `None` when the adapter cannot invert its map.
     fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]>;
+    /// Period in u and in v of a periodic surface (a sphere's or cylinder's
+    /// u: 2π; both for a torus), `None` for an open direction. Bubbles cross
+    /// a periodic seam freely; their parameter is kept in
+    /// `[domain.0, domain.0 + period)`.
+    fn periods(&self) -> [Option<f64>; 2] {
+        [None, None]
+    }
+    /// Whether S_u × S_v vanishes at (u,v) (a sphere's poles, a cone's
+    /// apex). Near such points the engine moves bubbles by projection
+    /// ([`Surface::inverse`]) instead of the first fundamental form.
+    fn is_singular(&self, _u: f64, _v: f64) -> bool {
+        false
+    }
     /// Whether the adapter itself knows that (u,v) is inside (`Some(true)`) or
     /// outside (`Some(false)`) the trimmed region; `None` (the default) lets
     /// the engine decide from the face's boundary loops.
