@@ -17,6 +17,14 @@ fn main() {
         ),
         "D" => (common::hexagon(), "0.1"),
         "E" => (common::square(), "0.002"),
+        "F" => (
+            common::closed_surface(std::sync::Arc::new(common::Sphere(1.0))),
+            "0.05",
+        ),
+        "G" => (
+            common::closed_surface(std::sync::Arc::new(common::Torus(1.0, 0.3))),
+            "0.03",
+        ),
         _ => panic!("case"),
     };
     let s = Expr::parse(expr).unwrap();
@@ -34,6 +42,9 @@ fn main() {
         opts.relax.population_until = v.parse().unwrap();
     }
     let (mesh, rep) = mesh_model(&model, &s, &opts).unwrap();
+    if let Ok(path) = std::env::var("OUT") {
+        write_obj(&mesh, &path);
+    }
     let q = common::radius_ratios(&mesh);
     let qmin = q.iter().cloned().fold(1.0, f64::min);
     let qmean = q.iter().sum::<f64>() / q.len() as f64;
@@ -126,4 +137,22 @@ pub fn worst(mesh: &bubblemesh_core::Mesh, q: &[f64]) {
         "   hist (<0.6,<0.7,<0.8,<0.9,<0.95,<0.98,<0.99,≤1): {:?}",
         h
     );
+}
+
+fn write_obj(mesh: &bubblemesh_core::Mesh, path: &str) {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    for n in &mesh.nodes {
+        writeln!(f, "v {} {} {}", n.pos.x, n.pos.y, n.pos.z).unwrap();
+    }
+    for t in &mesh.triangles {
+        writeln!(
+            f,
+            "f {} {} {}",
+            t.nodes[0] + 1,
+            t.nodes[1] + 1,
+            t.nodes[2] + 1
+        )
+        .unwrap();
+    }
 }

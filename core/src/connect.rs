@@ -140,6 +140,284 @@ pub fn triangulate(
     Ok(tris)
 }
 
+/// What [`triangulate_surface`] needs to know about a curved face.
+pub struct SurfacePoints<'a> {
+    /// Parameters of every point, in the fundamental domain.
+    pub uv: &'a [[f64; 2]],
+    /// Model-space positions.
+    pub pos: &'a [crate::geom::P3],
+    /// Unit surface normals (S_u × S_v) at the points.
+    pub normal: &'a [crate::geom::V3],
+    /// Node spacing at the points.
+    pub d: &'a [f64],
+    /// Points near a singular point of the parametrization (a pole, an
+    /// apex): left out of the (u,v) triangulation and connected in their
+    /// tangent plane instead.
+    pub singular: &'a [bool],
+    pub periods: [Option<f64>; 2],
+    /// Start of the fundamental domain.
+    pub origin: [f64; 2],
+}
+
+/// Triangulation of a curved, possibly periodic face.
+///
+/// - Periodic directions: points within a margin of the seam are copied one
+///   period over, the padded set is triangulated in (u,v), and of every
+///   triangle and its copies the one whose centroid lies in the fundamental
+///   domain is kept, its vertices mapped back to the originals; so the seam
+///   is crossed by ordinary triangles and no node is duplicated.
+/// - Singular points: the points marked `singular` are triangulated with the
+///   ring of mesh edges around them in the tangent plane of the ring (a cap).
+///
+/// Triangles are oriented along the surface normal. Constraint segments
+/// and boundary classification work as in [`triangulate`].
+pub fn triangulate_surface(
+    pts: &SurfacePoints<'_>,
+    segments: &[[usize; 2]],
+    boundary: &[[usize; 2]],
+) -> Result<Vec<[usize; 3]>, ConnectError> {
+    let n = pts.uv.len();
+    // --- padded copies of the regular points
+    let shifts_of = |uv: [f64; 2]| -> Vec<[f64; 2]> {
+        let mut out = vec![[0.0, 0.0]];
+        for c in 0..2 {
+            if let Some(p) = pts.periods[c] {
+                let margin = 0.25 * p;
+                let mut extra = Vec::new();
+                for s in &out {
+                    if uv[c] - pts.origin[c] < margin {
+                        let mut t = *s;
+                        t[c] = p;
+                        extra.push(t);
+                    }
+                    if pts.origin[c] + p - uv[c] < margin {
+                        let mut t = *s;
+                        t[c] = -p;
+                        extra.push(t);
+                    }
+                }
+                out.extend(extra);
+            }
+        }
+        out
+    };
+    let mut ext_uv: Vec<[f64; 2]> = Vec::new();
+    let mut ext_of: Vec<usize> = Vec::new();
+    let mut copies: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); n];
+    for i in 0..n {
+        if pts.singular[i] {
+            continue;
+        }
+        for s in shifts_of(pts.uv[i]) {
+            copies[i].push((ext_uv.len(), s));
+            ext_uv.push([pts.uv[i][0] + s[0], pts.uv[i][1] + s[1]]);
+            ext_of.push(i);
+        }
+    }
+    // segments between copies that are near each other in (u,v)
+    let lift = |segs: &[[usize; 2]]| -> Vec<[usize; 2]> {
+        let mut out = Vec::new();
+        for &[a, b] in segs {
+            for &(ea, _) in &copies[a] {
+                for &(eb, _) in &copies[b] {
+                    let (pa, pb) = (ext_uv[ea], ext_uv[eb]);
+                    let near = (0..2).all(|c| match pts.periods[c] {
+                        Some(p) => (pa[c] - pb[c]).abs() < 0.5 * p,
+                        None => true,
+                    });
+                    if near {
+                        out.push([ea, eb]);
+                    }
+                }
+            }
+        }
+        out
+    };
+    let ext_segments = lift(segments);
+    let ext_boundary = lift(boundary);
+    let ext_tris = triangulate(&ext_uv, &ext_segments, &ext_boundary, |_| true)?;
+    // keep the copy whose centroid is in the fundamental domain
+    let in_domain = |c: [f64; 2]| {
+        (0..2).all(|k| match pts.periods[k] {
+            Some(p) => c[k] >= pts.origin[k] && c[k] < pts.origin[k] + p,
+            None => true,
+        })
+    };
+    let mut tris: Vec<[usize; 3]> = Vec::new();
+    for t in ext_tris {
+        let c = [
+            (ext_uv[t[0]][0] + ext_uv[t[1]][0] + ext_uv[t[2]][0]) / 3.0,
+            (ext_uv[t[0]][1] + ext_uv[t[1]][1] + ext_uv[t[2]][1]) / 3.0,
+        ];
+        if in_domain(c) {
+            tris.push([ext_of[t[0]], ext_of[t[1]], ext_of[t[2]]]);
+        }
+    }
+    // --- where the parametrization is poor (around a pole, a hull lid
+    // over a left-out cap) the (u,v) triangles are long in model space:
+    // drop them and fill the holes in their tangent plane
+    tris.retain(|t| {
+        (0..3).all(|k| {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            (pts.pos[a] - pts.pos[b]).norm() <= LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
+        })
+    });
+    fill_caps(pts, &mut tris, boundary)?;
+    // --- orientation along the surface normal
+    for t in &mut tris {
+        let (a, b, c) = (pts.pos[t[0]], pts.pos[t[1]], pts.pos[t[2]]);
+        let nrm = pts.normal[t[0]] + pts.normal[t[1]] + pts.normal[t[2]];
+        if (b - a).cross(&(c - a)).dot(&nrm) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    Ok(tris)
+}
+
+/// An edge of a (u,v) triangle longer than this many spacings marks a
+/// distorted place of the parametrization (see [`triangulate_surface`]).
+const LONG_EDGE: f64 = 2.0;
+
+/// Fills every hole of `tris` bounded by edges that are not boundary
+/// segments, with the points that lost all their triangles (singular
+/// points, points under a dropped lid) nearest to it, in the hole's tangent
+/// plane.
+fn fill_caps(
+    pts: &SurfacePoints<'_>,
+    tris: &mut Vec<[usize; 3]>,
+    boundary: &[[usize; 2]],
+) -> Result<(), ConnectError> {
+    use std::collections::{HashMap, HashSet};
+    let n = pts.uv.len();
+    // orient the (u,v) triangles along the normal so hole sides are known
+    for t in tris.iter_mut() {
+        let (a, b, c) = (pts.pos[t[0]], pts.pos[t[1]], pts.pos[t[2]]);
+        let nrm = pts.normal[t[0]] + pts.normal[t[1]] + pts.normal[t[2]];
+        if (b - a).cross(&(c - a)).dot(&nrm) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    let bset: HashSet<(usize, usize)> = boundary
+        .iter()
+        .map(|s| (s[0].min(s[1]), s[0].max(s[1])))
+        .collect();
+    let mut uses: HashMap<(usize, usize), (usize, usize, u32)> = HashMap::new();
+    for t in tris.iter() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let e = uses.entry((a.min(b), a.max(b))).or_insert((a, b, 0));
+            e.2 += 1;
+        }
+    }
+    // hole half-edges, directed with the hole on their left
+    let hole: Vec<[usize; 2]> = uses
+        .iter()
+        .filter(|(k, v)| v.2 == 1 && !bset.contains(k))
+        .map(|(_, v)| [v.1, v.0])
+        .collect();
+    let mut used = vec![false; n];
+    for t in tris.iter() {
+        for &v in t {
+            used[v] = true;
+        }
+    }
+    let orphans: Vec<usize> = (0..n).filter(|&i| !used[i]).collect();
+    if hole.is_empty() {
+        return if orphans.is_empty() {
+            Ok(())
+        } else {
+            Err(ConnectError::Insertion(format!(
+                "{} points lost their triangles but no hole was found",
+                orphans.len()
+            )))
+        };
+    }
+    // connected components of the hole edges (union-find)
+    let mut parent: HashMap<usize, usize> = HashMap::new();
+    fn find(p: &mut HashMap<usize, usize>, x: usize) -> usize {
+        let mut r = x;
+        while let Some(&q) = p.get(&r) {
+            if q == r {
+                break;
+            }
+            r = q;
+        }
+        p.insert(x, r);
+        r
+    }
+    for &[a, b] in &hole {
+        parent.entry(a).or_insert(a);
+        parent.entry(b).or_insert(b);
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        if ra != rb {
+            parent.insert(ra, rb);
+        }
+    }
+    let mut comp_of: HashMap<usize, usize> = HashMap::new();
+    let mut comps: Vec<Vec<usize>> = Vec::new();
+    let mut keys: Vec<usize> = parent.keys().cloned().collect();
+    keys.sort_unstable();
+    for v in keys {
+        let r = find(&mut parent, v);
+        let k = *comp_of.entry(r).or_insert_with(|| {
+            comps.push(Vec::new());
+            comps.len() - 1
+        });
+        comps[k].push(v);
+    }
+    // orphans go to the component with the nearest vertex
+    let mut inner: Vec<Vec<usize>> = vec![Vec::new(); comps.len()];
+    for &o in &orphans {
+        let mut best = (f64::INFINITY, 0);
+        for (k, c) in comps.iter().enumerate() {
+            for &v in c {
+                let dd = (pts.pos[o] - pts.pos[v]).norm();
+                if dd < best.0 {
+                    best = (dd, k);
+                }
+            }
+        }
+        inner[best.1].push(o);
+    }
+    for (k, comp) in comps.iter().enumerate() {
+        let local: Vec<usize> = comp.iter().chain(inner[k].iter()).cloned().collect();
+        let index: HashMap<usize, usize> = local.iter().enumerate().map(|(i, &g)| (g, i)).collect();
+        let nrm = local
+            .iter()
+            .fold(crate::geom::V3::zeros(), |a, &i| a + pts.normal[i]);
+        let nrm = if nrm.norm() > 0.0 {
+            nrm.normalize()
+        } else {
+            crate::geom::V3::z()
+        };
+        let e1 = if nrm.x.abs() < 0.9 {
+            crate::geom::V3::x()
+        } else {
+            crate::geom::V3::y()
+        };
+        let e1 = (e1 - nrm * nrm.dot(&e1)).normalize();
+        let e2 = nrm.cross(&e1);
+        let o = pts.pos[local[0]];
+        let puv: Vec<[f64; 2]> = local
+            .iter()
+            .map(|&i| {
+                let d = pts.pos[i] - o;
+                [d.dot(&e1), d.dot(&e2)]
+            })
+            .collect();
+        let segs: Vec<[usize; 2]> = hole
+            .iter()
+            .filter(|s| index.contains_key(&s[0]) && index.contains_key(&s[1]))
+            .map(|s| [index[&s[0]], index[&s[1]]])
+            .collect();
+        let cap = triangulate(&puv, &segs, &segs, |_| false)?;
+        for t in cap {
+            tris.push([local[t[0]], local[t[1]], local[t[2]]]);
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

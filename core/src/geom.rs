@@ -110,6 +110,17 @@ pub trait Surface: Send + Sync + std::fmt::Debug {
     fn is_singular(&self, _u: f64, _v: f64) -> bool {
         false
     }
+    /// The model-space points where the parametrization is singular (a
+    /// sphere's poles, a cone's apex). Bubbles near them are connected in
+    /// their tangent plane instead of in (u,v).
+    fn singular_points(&self) -> Vec<P3> {
+        Vec::new()
+    }
+    /// Whether the surface is a plane (lets the engine use exact 2D
+    /// predicates in (u,v) and a lattice aligned with the parameters).
+    fn is_planar(&self) -> bool {
+        false
+    }
     /// Whether the adapter itself knows that (u,v) is inside (`Some(true)`) or
     /// outside (`Some(false)`) the trimmed region; `None` (the default) lets
     /// the engine decide from the face's boundary loops.
@@ -171,5 +182,8 @@ impl Surface for Plane {
     fn inverse(&self, p: &P3, _hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
         let d = p - self.origin;
         Some([d.dot(&self.e1), d.dot(&self.e2)])
+    }
+    fn is_planar(&self) -> bool {
+        true
     }
 }

@@ -30,6 +30,11 @@ pub trait Carrier: Sync {
     fn contains(&self, params: [f64; 2]) -> bool;
     /// The point at `params`.
     fn point(&self, params: [f64; 2]) -> P3;
+    /// The unit normal S_u × S_v at `params` (its limit at a singular point).
+    fn normal(&self, params: [f64; 2]) -> V3;
+    /// Whether the entity is flat, so (u,v) orientation equals model-space
+    /// orientation.
+    fn planar(&self) -> bool;
 }
 
 /// Bubbles on a trimmed surface.
@@ -52,24 +57,64 @@ pub fn parameter_step(su: &V3, sv: &V3, dx: &V3) -> Option<[f64; 2]> {
     Some([(g * a - f * b) / det, (e * b - f * a) / det])
 }
 
+impl OnFace<'_> {
+    /// Whether the parametrization degenerates at `uv` (the adapter says so,
+    /// or S_u × S_v is tiny against |S_u|·|S_v| or against the larger of them
+    /// squared): there bubbles move by projection.
+    fn degenerate(&self, uv: [f64; 2], su: &V3, sv: &V3) -> bool {
+        if self.surface.is_singular(uv[0], uv[1]) {
+            return true;
+        }
+        let cross = su.cross(sv).norm();
+        let scale = su.norm_squared().max(sv.norm_squared());
+        !(cross > 1e-3 * scale)
+    }
+}
+
 impl Carrier for OnFace<'_> {
     fn entity(&self) -> EntityRef {
         self.entity
     }
     fn advance(&self, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
         let dv = self.surface.derivs(params[0], params[1]);
-        let step = parameter_step(&dv.su, &dv.sv, dx)?;
-        let uv = [params[0] + step[0], params[1] + step[1]];
-        if !self.contains(uv) {
+        let uv = if self.degenerate(params, &dv.su, &dv.sv) {
+            // near a pole or an apex the first fundamental form is singular:
+            // project the moved point back onto the surface instead
+            self.surface.inverse(&(dv.p + dx), Some(params))?
+        } else {
+            let step = parameter_step(&dv.su, &dv.sv, dx)?;
+            [params[0] + step[0], params[1] + step[1]]
+        };
+        let uv = self.region.wrap(uv);
+        if !(uv[0].is_finite() && uv[1].is_finite()) || !self.contains(uv) {
             return None;
         }
         Some((self.surface.point(uv[0], uv[1]), uv))
     }
     fn frame(&self, params: [f64; 2]) -> (V3, V3) {
-        let dv = self.surface.derivs(params[0], params[1]);
-        let t1 = dv.su.normalize();
-        let t2 = (dv.sv - t1 * t1.dot(&dv.sv)).normalize();
-        (t1, t2)
+        let mut dv = self.surface.derivs(params[0], params[1]);
+        if self.degenerate(params, &dv.su, &dv.sv) {
+            // at a singular point take the frame a hair toward the middle of
+            // the domain (the tangent plane is the limit there)
+            let (lo, hi) = self.region.bbox();
+            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            let q = [
+                params[0] + 1e-6 * (mid[0] - params[0]),
+                params[1] + 1e-6 * (mid[1] - params[1]),
+            ];
+            dv = self.surface.derivs(q[0], q[1]);
+        }
+        let (a, b) = if dv.su.norm_squared() >= dv.sv.norm_squared() {
+            (dv.su, dv.sv)
+        } else {
+            (dv.sv, dv.su)
+        };
+        let t1 = a.normalize();
+        let mut t2 = b - t1 * t1.dot(&b);
+        if t2.norm_squared() <= 0.0 {
+            t2 = t1.cross(&V3::z()).cross(&t1);
+        }
+        (t1, t2.normalize())
     }
     fn contains(&self, params: [f64; 2]) -> bool {
         match self.surface.trim(params[0], params[1]) {
@@ -79,6 +124,22 @@ impl Carrier for OnFace<'_> {
     }
     fn point(&self, params: [f64; 2]) -> P3 {
         self.surface.point(params[0], params[1])
+    }
+    fn normal(&self, params: [f64; 2]) -> V3 {
+        let mut dv = self.surface.derivs(params[0], params[1]);
+        if self.degenerate(params, &dv.su, &dv.sv) {
+            let (lo, hi) = self.region.bbox();
+            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            let q = [
+                params[0] + 1e-6 * (mid[0] - params[0]),
+                params[1] + 1e-6 * (mid[1] - params[1]),
+            ];
+            dv = self.surface.derivs(q[0], q[1]);
+        }
+        dv.su.cross(&dv.sv).normalize()
+    }
+    fn planar(&self) -> bool {
+        self.surface.is_planar()
     }
 }
 

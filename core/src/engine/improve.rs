@@ -91,6 +91,42 @@ pub fn improve<C: Carrier>(
     Ok(())
 }
 
+/// Whether the triangle (a, b, c), with bubble `i` moved to (`p`, `uv`),
+/// is positively oriented: in (u,v) with exact predicates on a plane, along
+/// the surface normal at the moved bubble otherwise.
+fn oriented<C: Carrier>(
+    sys: &System<'_, C>,
+    t: [usize; 3],
+    i: usize,
+    p: &P3,
+    uv: [f64; 2],
+) -> bool {
+    if sys.carrier.planar() {
+        let q = |x: usize| if x == i { uv } else { sys.params[x] };
+        orient_uv(q(t[0]), q(t[1]), q(t[2])) > 0.0
+    } else {
+        let at = |x: usize| if x == i { *p } else { sys.pos[x] };
+        let n = sys
+            .carrier
+            .normal(if t.contains(&i) { uv } else { sys.params[t[0]] });
+        (at(t[1]) - at(t[0])).cross(&(at(t[2]) - at(t[0]))).dot(&n) > 0.0
+    }
+}
+
+/// Whether the edge (a,b) of the triangles (a,b,c), (b,a,d) should flip to
+/// be Delaunay: the in-circle test in (u,v) on a plane, the opposite-angle
+/// sum measured in model space on a curved surface.
+fn not_delaunay<C: Carrier>(sys: &System<'_, C>, a: usize, b: usize, c: usize, d: usize) -> bool {
+    if sys.carrier.planar() {
+        let p = &sys.params;
+        incircle_uv(p[a], p[b], p[c], p[d]) > 0.0
+    } else {
+        let x = &sys.pos;
+        let ang = |o: usize| (x[a] - x[o]).angle(&(x[b] - x[o]));
+        ang(c) + ang(d) > std::f64::consts::PI + 1e-12
+    }
+}
+
 fn incircle_uv(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
     let k = |p: [f64; 2]| robust::Coord { x: p[0], y: p[1] };
     robust::incircle(k(a), k(b), k(c), k(d))
@@ -122,11 +158,7 @@ fn delaunay_flips<C: Carrier>(
             if fixed.contains(&(a.min(b), a.max(b))) {
                 continue;
             }
-            let p = &sys.params;
-            // d inside the circumcircle of the ccw triangle (a, b, c)
-            if incircle_uv(p[a], p[b], p[c], p[d]) > 0.0
-                && try_flip(sys, tris, &mut inc, ti, tj, a, b, c, d)
-            {
+            if not_delaunay(sys, a, b, c, d) && try_flip(sys, tris, &mut inc, ti, tj, a, b, c, d) {
                 flips += 1;
                 stack.push(ti);
                 stack.push(tj);
@@ -233,7 +265,13 @@ fn try_flip<C: Carrier>(
     d: usize,
 ) -> bool {
     let p = &sys.params;
-    if orient_uv(p[c], p[a], p[d]) <= 0.0 || orient_uv(p[d], p[b], p[c]) <= 0.0 {
+    let ok = if sys.carrier.planar() {
+        orient_uv(p[c], p[a], p[d]) > 0.0 && orient_uv(p[d], p[b], p[c]) > 0.0
+    } else {
+        oriented(sys, [c, a, d], c, &sys.pos[c], p[c])
+            && oriented(sys, [d, b, c], d, &sys.pos[d], p[d])
+    };
+    if !ok {
         return false;
     }
     tris[ti] = [c, a, d];
@@ -283,8 +321,7 @@ fn lift_worst<C: Carrier>(
             for &ti in &incident[i] {
                 let t = tris[ti];
                 let at = |x: usize| if x == i { *p } else { sys.pos[x] };
-                let atuv = |x: usize| if x == i { uv } else { sys.params[x] };
-                if orient_uv(atuv(t[0]), atuv(t[1]), atuv(t[2])) <= 0.0 {
+                if !oriented(sys, t, i, p, uv) {
                     return -1.0;
                 }
                 w = w.min(radius_ratio(&at(t[0]), &at(t[1]), &at(t[2])));
@@ -412,11 +449,9 @@ fn relax_edges<C: Carrier>(
                     step *= 0.5;
                     continue;
                 };
-                let ok = incident(i).iter().all(|&ti| {
-                    let t = tris[ti as usize];
-                    let q = |x: usize| if x == i { uv } else { sys.params[x] };
-                    orient_uv(q(t[0]), q(t[1]), q(t[2])) > 0.0
-                });
+                let ok = incident(i)
+                    .iter()
+                    .all(|&ti| oriented(sys, tris[ti as usize], i, &p, uv));
                 if ok {
                     sys.pos[i] = p;
                     sys.params[i] = uv;

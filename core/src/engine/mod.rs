@@ -33,13 +33,17 @@ use crate::spacing::{Spacing, SpacingQuery};
 pub use dynamics::Integrator;
 pub use system::{RelaxSettings, RelaxStats};
 
-use constraint::OnFace;
+use constraint::{Carrier, OnFace};
 use region::Region;
 use system::System;
 
 /// Seed a boundary layer before the quadtree lattice (measured: no gain on
 /// cases A–C with the current relaxation, so off; kept for surfaces).
 const APEX_LAYER: bool = false;
+/// Bubbles closer than this many spacings to a singular point of the
+/// parametrization are connected in their tangent plane (a cap), not in (u,v).
+const CAP_RADIUS: f64 = 3.0;
+
 /// Rounds of edge relaxation and Delaunay flips after connection
 /// ([`improve`]).
 const IMPROVE_ROUNDS: usize = 6;
@@ -440,8 +444,10 @@ fn mesh_face(
     let face = &model.faces[fi];
     let fe = EntityRef::new(2, fi as u32);
     let surface = face.surface.as_ref();
-    if face.loops.is_empty() {
-        return Err(MeshError::Invalid("the face has no boundary loop".into()));
+    if face.loops.is_empty() && surface.periods().iter().all(|p| p.is_none()) {
+        return Err(MeshError::Invalid(
+            "the face has no boundary loop and its surface is not closed (not periodic)".into(),
+        ));
     }
     let t1 = Instant::now();
 
@@ -546,7 +552,18 @@ fn mesh_face(
             boundary.push(if face_on_left { [a, b] } else { [b, a] });
         }
     }
-    let region = Region::new(&loops_uv);
+    let periods = surface.periods();
+    if periods[0].is_some() && periods[1].is_some() && !loops_uv.is_empty() {
+        return Err(MeshError::Unsupported(
+            "a face with boundary loops on a surface periodic in both u and v (a trimmed torus) is not supported yet"
+                .into(),
+        ));
+    }
+    let region = if periods.iter().any(|p| p.is_some()) || loops_uv.is_empty() {
+        Region::periodic(&loops_uv, periods, surface.domain())
+    } else {
+        Region::new(&loops_uv)
+    };
     let (lo, hi) = region.bbox();
     let carrier = OnFace {
         surface,
@@ -555,7 +572,7 @@ fn mesh_face(
     };
 
     // stage 1: oblique quadtree
-    let uniform_leaf = spacing.constant().map(|d| {
+    let uniform_leaf = spacing.constant().filter(|_| surface.is_planar()).map(|d| {
         let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
         let dv = surface.derivs(c[0], c[1]);
         // parameter length of one spacing along u (1 on a plane)
@@ -569,10 +586,25 @@ fn mesh_face(
         });
         check_spacing(d, *p, fe)
     };
-    let d_outside = fixed_ids
+    let mut d_outside = fixed_ids
         .iter()
         .map(|&id| node_d[id as usize])
         .fold(f64::INFINITY, f64::min);
+    if !d_outside.is_finite() {
+        // a closed face has no boundary bubbles: sample the spacing on it
+        for k in 0..=8 {
+            for l in 0..=8 {
+                let uv = [
+                    lo[0] + (hi[0] - lo[0]) * k as f64 / 8.0,
+                    lo[1] + (hi[1] - lo[1]) * l as f64 / 8.0,
+                ];
+                if carrier.contains(uv) {
+                    let p = carrier.point(uv);
+                    d_outside = d_outside.min(d_at(&p, uv)?);
+                }
+            }
+        }
+    }
     let seeds = placement::oblique_quadtree(&carrier, lo, hi, uniform_leaf, d_outside, &mut d_at)?;
 
     // boundary layer: one bubble over each boundary segment, at the apex of
@@ -628,7 +660,7 @@ fn mesh_face(
                 )
             })
             .collect();
-        if spacing.constant().is_none() || APEX_LAYER {
+        if spacing.constant().is_none() || APEX_LAYER || !surface.is_planar() {
             let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
             let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
             let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -699,24 +731,64 @@ fn mesh_face(
     let keep = |c: [f64; 2]| {
         sys.carrier.region.contains(c[0], c[1]) && surface.trim(c[0], c[1]).unwrap_or(true)
     };
-    let mut tris = connect::triangulate(&sys.params, &segments, &boundary, keep)?;
+    let mut tris = if surface.is_planar() {
+        connect::triangulate(&sys.params, &segments, &boundary, keep)?
+    } else {
+        let normal: Vec<V3> = sys
+            .params
+            .iter()
+            .map(|&uv| sys.carrier.normal(uv))
+            .collect();
+        let poles = surface.singular_points();
+        let singular: Vec<bool> = (0..sys.n())
+            .map(|i| {
+                i >= sys.n_fixed
+                    && poles
+                        .iter()
+                        .any(|q| (sys.pos[i] - q).norm() < CAP_RADIUS * sys.d[i])
+            })
+            .collect();
+        let pts = connect::SurfacePoints {
+            uv: &sys.params,
+            pos: &sys.pos,
+            normal: &normal,
+            d: &sys.d,
+            singular: &singular,
+            periods,
+            origin: [surface.domain().0[0], surface.domain().0[1]],
+        };
+        connect::triangulate_surface(&pts, &segments, &boundary)?
+    };
     if !opts.fast && IMPROVE_ROUNDS > 0 {
         improve::improve(&mut sys, &mut tris, &segments, IMPROVE_ROUNDS)?;
     }
-    let first_new = mesh.nodes.len() as u32;
     let nf = sys.n_fixed;
-    for i in nf..sys.n() {
-        mesh.nodes.push(Node {
-            pos: sys.pos[i],
-            entity: fe,
-            params: sys.params[i],
-        });
+    // free bubbles become nodes; one the connection left without a triangle
+    // (it sat within half a spacing of another near a singular point) is
+    // dropped rather than left as an unreferenced node
+    let mut referenced = vec![false; sys.n()];
+    for t in &tris {
+        for &v in t {
+            referenced[v] = true;
+        }
     }
+    let mut node_of = vec![u32::MAX; sys.n()];
+    for i in nf..sys.n() {
+        if referenced[i] {
+            node_of[i] = mesh.nodes.len() as u32;
+            mesh.nodes.push(Node {
+                pos: sys.pos[i],
+                entity: fe,
+                params: sys.params[i],
+            });
+        }
+    }
+    fr.bubbles = (nf..sys.n()).filter(|&i| referenced[i]).count();
     let global = |l: usize| -> u32 {
         if l < nf {
             sys.fixed_ids[l]
         } else {
-            first_new + (l - nf) as u32
+            node_of[l]
         }
     };
     for t in &tris {

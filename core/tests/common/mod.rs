@@ -182,3 +182,102 @@ pub fn spacing_conformance(mesh: &Mesh, d: impl Fn(&P3) -> f64) -> (f64, f64) {
     }
     (inside as f64 / edges.len() as f64, sum / edges.len() as f64)
 }
+
+/// Unit-frame sphere: S = c + r (cos v cos u, cos v sin u, sin v).
+#[derive(Debug)]
+pub struct Sphere(pub f64);
+
+impl bubblemesh_core::geom::Surface for Sphere {
+    fn domain(&self) -> ([f64; 2], [f64; 2]) {
+        let h = std::f64::consts::FRAC_PI_2;
+        ([0.0, -h], [std::f64::consts::TAU, h])
+    }
+    fn point(&self, u: f64, v: f64) -> P3 {
+        P3::new(v.cos() * u.cos(), v.cos() * u.sin(), v.sin()) * self.0
+    }
+    fn derivs(&self, u: f64, v: f64) -> bubblemesh_core::geom::SurfaceDerivs {
+        let r = self.0;
+        let (cu, su, cv, sv) = (u.cos(), u.sin(), v.cos(), v.sin());
+        bubblemesh_core::geom::SurfaceDerivs {
+            p: self.point(u, v),
+            su: V3::new(-cv * su, cv * cu, 0.0) * r,
+            sv: V3::new(-sv * cu, -sv * su, cv) * r,
+            suu: V3::new(-cv * cu, -cv * su, 0.0) * r,
+            suv: V3::new(sv * su, -sv * cu, 0.0) * r,
+            svv: V3::new(-cv * cu, -cv * su, -sv) * r,
+        }
+    }
+    fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
+        let n = p.coords.norm();
+        if n == 0.0 {
+            return None;
+        }
+        let v = (p.z / n).clamp(-1.0, 1.0).asin();
+        let u = if p.x.hypot(p.y) < 1e-14 * n {
+            hint.map(|h| h[0]).unwrap_or(0.0)
+        } else {
+            p.y.atan2(p.x)
+        };
+        Some([u.rem_euclid(std::f64::consts::TAU), v])
+    }
+    fn periods(&self) -> [Option<f64>; 2] {
+        [Some(std::f64::consts::TAU), None]
+    }
+    fn is_singular(&self, _u: f64, v: f64) -> bool {
+        v.abs() >= std::f64::consts::FRAC_PI_2 - 1e-12
+    }
+    fn singular_points(&self) -> Vec<P3> {
+        vec![P3::new(0.0, 0.0, self.0), P3::new(0.0, 0.0, -self.0)]
+    }
+}
+
+/// Torus about z: S = ((R + r cos v) cos u, (R + r cos v) sin u, r sin v).
+#[derive(Debug)]
+pub struct Torus(pub f64, pub f64);
+
+impl bubblemesh_core::geom::Surface for Torus {
+    fn domain(&self) -> ([f64; 2], [f64; 2]) {
+        ([0.0, 0.0], [std::f64::consts::TAU, std::f64::consts::TAU])
+    }
+    fn point(&self, u: f64, v: f64) -> P3 {
+        let w = self.0 + self.1 * v.cos();
+        P3::new(w * u.cos(), w * u.sin(), self.1 * v.sin())
+    }
+    fn derivs(&self, u: f64, v: f64) -> bubblemesh_core::geom::SurfaceDerivs {
+        let (big, r) = (self.0, self.1);
+        let (cu, su, cv, sv) = (u.cos(), u.sin(), v.cos(), v.sin());
+        let w = big + r * cv;
+        bubblemesh_core::geom::SurfaceDerivs {
+            p: self.point(u, v),
+            su: V3::new(-w * su, w * cu, 0.0),
+            sv: V3::new(-r * sv * cu, -r * sv * su, r * cv),
+            suu: V3::new(-w * cu, -w * su, 0.0),
+            suv: V3::new(r * sv * su, -r * sv * cu, 0.0),
+            svv: V3::new(-r * cv * cu, -r * cv * su, -r * sv),
+        }
+    }
+    fn inverse(&self, p: &P3, _hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
+        let u = p.y.atan2(p.x);
+        let rho = p.x.hypot(p.y) - self.0;
+        let v = p.z.atan2(rho);
+        Some([
+            u.rem_euclid(std::f64::consts::TAU),
+            v.rem_euclid(std::f64::consts::TAU),
+        ])
+    }
+    fn periods(&self) -> [Option<f64>; 2] {
+        [Some(std::f64::consts::TAU), Some(std::f64::consts::TAU)]
+    }
+}
+
+pub fn closed_surface(s: Arc<dyn bubblemesh_core::geom::Surface>) -> Model {
+    let mut m = Model::default();
+    m.faces.push(Face {
+        surface: s,
+        loops: vec![],
+        embedded_edges: vec![],
+        embedded_vertices: vec![],
+        name: None,
+    });
+    m
+}
