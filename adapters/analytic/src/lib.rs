@@ -5,6 +5,10 @@
 //! - [`curves`]: [`Line`], [`CircleArc`] and [`Nurbs`], each implementing
 //!   [`bubblemesh_core::geom::Curve`] with exact first and second
 //!   derivatives;
+//! - [`surfaces`]: [`Sphere`], [`Cylinder`], [`Cone`], [`Torus`],
+//!   [`Revolution`], [`Extrusion`] and [`NurbsSurface`], each implementing
+//!   [`bubblemesh_core::geom::Surface`] with exact first and second
+//!   partials, periods, singular points and a closest-point inverse;
 //! - [`domain`]: the versioned TOML format for planar domains and curve
 //!   sets (`docs/domain-format.md`), read into a
 //!   [`bubblemesh_core::model::Model`] by [`read_domain`] / [`parse_domain`].
@@ -15,6 +19,10 @@
 
 pub mod curves;
 pub mod domain;
+pub mod surfaces;
 
 pub use curves::{CircleArc, GeometryError, Line, Nurbs, MAX_NURBS_DEGREE};
 pub use domain::{parse_domain, read_domain, DomainError, FORMAT};
+pub use surfaces::{
+    Cone, Cylinder, Extrusion, Frame, NurbsSurface, Revolution, Sphere, SurfaceError, Torus,
+};

@@ -1,0 +1,457 @@
+//! Tensor-product NURBS surfaces with exact first and second partials.
+//!
+//! The algorithms are those of The NURBS Book (Piegl & Tiller, 2nd ed.):
+//! A2.1 span search, A2.3 basis-function derivatives, and the rational
+//! quotient rule of A4.4 applied to the homogeneous sums. Unlike
+//! truck-geometry 0.5 (whose second derivatives are off by a factor p − 1
+//! for degree ≥ 3) S_uu, S_vv and S_uv are exact; the tests compare them
+//! with finite differences on bicubic patches.
+
+use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3, V3};
+
+use super::{area_singular, newton_inverse, typical_partials, wrap, ParamBox, SurfaceError};
+use crate::curves::{GeometryError, Nurbs, MAX_NURBS_DEGREE};
+
+const MAXP: usize = MAX_NURBS_DEGREE + 1;
+
+/// A NURBS surface of degrees (p, q) with an nu × nv control net P_ij,
+/// weights w_ij > 0 and knot vectors U = (u_0 … u_{nu+p}),
+/// V = (v_0 … v_{nv+q}):
+///
+/// S(u,v) = Σ_ij N_{i,p}(u) M_{j,q}(v) w_ij P_ij / Σ_ij N_{i,p}(u) M_{j,q}(v) w_ij
+///
+/// on the domain u ∈ [u_p, u_nu], v ∈ [v_q, v_nv] (dimensionless knot
+/// parameters). Index i runs along u, j along v: `net[i][j]`.
+///
+/// Each direction is validated exactly like a [`Nurbs`] curve (degree
+/// 1 ..= [`MAX_NURBS_DEGREE`], at least degree + 1 points, knot count,
+/// non-decreasing finite knots with a non-empty domain, interior knot
+/// multiplicity ≤ degree); the net and weight net must be rectangular,
+/// finite, with weights > 0.
+///
+/// A direction is *periodic* when the surface is closed in it: S(u_p, v) =
+/// S(u_nu, v) (to 1e-10 × the net's size) at 9 sample values of v (and
+/// likewise for v). Evaluation then takes that parameter modulo the domain
+/// width, and [`Surface::periods`] reports it.
+///
+/// Singular points (collapsed edges, e.g. the pole of a sphere patch) use
+/// the generic test |S_u × S_v| ≤ [`SINGULAR_REL`](super::SINGULAR_REL) × typical |S_u| ×
+/// typical |S_v|.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NurbsSurface {
+    degree: [usize; 2],
+    n: [usize; 2],
+    /// Control points, row-major (index i·nv + j).
+    points: Vec<P3>,
+    weights: Vec<f64>,
+    /// (w P, w) per control point.
+    hw: Vec<[f64; 4]>,
+    knots_u: Vec<f64>,
+    knots_v: Vec<f64>,
+    rational: bool,
+    period: [Option<f64>; 2],
+    size: f64,
+    scale: [f64; 2],
+}
+
+impl NurbsSurface {
+    /// A NURBS surface; `net[i][j]` is P_ij (i along u), `weights` (same
+    /// shape) `None` for a polynomial B-spline surface (all weights 1).
+    pub fn new(
+        degree_u: usize,
+        degree_v: usize,
+        net: Vec<Vec<P3>>,
+        weights: Option<Vec<Vec<f64>>>,
+        knots_u: Vec<f64>,
+        knots_v: Vec<f64>,
+    ) -> Result<Self, SurfaceError> {
+        let nu = net.len();
+        let nv = net.first().map_or(0, |r| r.len());
+        if let Some((i, r)) = net.iter().enumerate().find(|(_, r)| r.len() != nv) {
+            return Err(SurfaceError::BadNet(format!(
+                "row {} has {} points but row 1 has {nv} (the net must be rectangular)",
+                i + 1,
+                r.len()
+            )));
+        }
+        // Each direction validated as a curve with that many points.
+        let check = |dir: &'static str, p: usize, n: usize, knots: &Vec<f64>| {
+            Nurbs::new(p, vec![P3::origin(); n], None, knots.clone())
+                .map(|_| ())
+                .map_err(|source| SurfaceError::NurbsDirection { dir, source })
+        };
+        check("u", degree_u, nu, &knots_u)?;
+        check("v", degree_v, nv, &knots_v)?;
+        let points: Vec<P3> = net.into_iter().flatten().collect();
+        if !points.iter().all(|p| p.iter().all(|x| x.is_finite())) {
+            return Err(GeometryError::NotFinite("NURBS control point").into());
+        }
+        let weights: Vec<f64> = match weights {
+            None => vec![1.0; nu * nv],
+            Some(w) => {
+                if w.len() != nu || w.iter().any(|r| r.len() != nv) {
+                    return Err(SurfaceError::BadNet(format!(
+                        "the weight net must be {nu} × {nv} like the control net"
+                    )));
+                }
+                let w: Vec<f64> = w.into_iter().flatten().collect();
+                if let Some((k, x)) = w
+                    .iter()
+                    .enumerate()
+                    .find(|(_, x)| !(x.is_finite() && **x > 0.0))
+                {
+                    return Err(GeometryError::BadWeights(format!(
+                        "weight ({}, {}) is {x}; weights must be finite and > 0",
+                        k / nv + 1,
+                        k % nv + 1
+                    ))
+                    .into());
+                }
+                w
+            }
+        };
+        let hw = points
+            .iter()
+            .zip(&weights)
+            .map(|(p, &w)| [p.x * w, p.y * w, p.z * w, w])
+            .collect();
+        let (mut lo, mut hi) = (V3::repeat(f64::INFINITY), V3::repeat(f64::NEG_INFINITY));
+        for p in &points {
+            lo = lo.inf(&p.coords);
+            hi = hi.sup(&p.coords);
+        }
+        let mut s = NurbsSurface {
+            degree: [degree_u, degree_v],
+            n: [nu, nv],
+            rational: weights.iter().any(|&w| w != 1.0),
+            points,
+            weights,
+            hw,
+            knots_u,
+            knots_v,
+            period: [None, None],
+            size: (hi - lo).norm().max(f64::MIN_POSITIVE),
+            scale: [1.0, 1.0],
+        };
+        s.period = s.detect_periods();
+        s.scale = typical_partials(&s);
+        Ok(s)
+    }
+
+    /// A NURBS surface with clamped uniform knot vectors on [0, 1] in both
+    /// directions (p + 1 zeros, interior knots i/(n − p), p + 1 ones).
+    pub fn clamped_uniform(
+        degree_u: usize,
+        degree_v: usize,
+        net: Vec<Vec<P3>>,
+        weights: Option<Vec<Vec<f64>>>,
+    ) -> Result<Self, SurfaceError> {
+        let nu = net.len();
+        let nv = net.first().map_or(0, |r| r.len());
+        let ku = clamped_uniform_knots(degree_u, nu);
+        let kv = clamped_uniform_knots(degree_v, nv);
+        Self::new(degree_u, degree_v, net, weights, ku, kv)
+    }
+
+    /// Degrees (p, q).
+    pub fn degrees(&self) -> [usize; 2] {
+        self.degree
+    }
+    /// Net size (nu, nv).
+    pub fn net_size(&self) -> [usize; 2] {
+        self.n
+    }
+    /// Control point P_ij.
+    pub fn control_point(&self, i: usize, j: usize) -> P3 {
+        self.points[i * self.n[1] + j]
+    }
+    /// Weight w_ij.
+    pub fn weight(&self, i: usize, j: usize) -> f64 {
+        self.weights[i * self.n[1] + j]
+    }
+    /// Knot vector U.
+    pub fn knots_u(&self) -> &[f64] {
+        &self.knots_u
+    }
+    /// Knot vector V.
+    pub fn knots_v(&self) -> &[f64] {
+        &self.knots_v
+    }
+    /// Whether some weight differs from 1.
+    pub fn is_rational(&self) -> bool {
+        self.rational
+    }
+    /// Control-net bounding-box diagonal (model units); the surface lies in
+    /// the box (convex hull property). Used by the inverse's distance check.
+    pub fn size(&self) -> f64 {
+        self.size
+    }
+
+    fn detect_periods(&self) -> [Option<f64>; 2] {
+        let (du, dv) = self.domain();
+        let tol = 1e-10 * self.size;
+        let closed = |f: &dyn Fn(f64) -> (P3, P3)| {
+            (0..9).all(|k| {
+                let (a, b) = f(k as f64 / 8.0);
+                (a - b).norm() <= tol
+            })
+        };
+        let cu = closed(&|t| {
+            let v = dv[0] + t * (dv[1] - dv[0]);
+            (self.eval(du[0], v).p, self.eval(du[1], v).p)
+        });
+        let cv = closed(&|t| {
+            let u = du[0] + t * (du[1] - du[0]);
+            (self.eval(u, dv[0]).p, self.eval(u, dv[1]).p)
+        });
+        [cu.then_some(du[1] - du[0]), cv.then_some(dv[1] - dv[0])]
+    }
+
+    /// S and its partials up to order 2 (no wrapping).
+    #[allow(clippy::needless_range_loop)] // index form of the book's algorithm
+    fn eval(&self, u: f64, v: f64) -> SurfaceDerivs {
+        let [p, q] = self.degree;
+        let [nu, nv] = self.n;
+        let ku = find_span(&self.knots_u, p, nu, u);
+        let kv = find_span(&self.knots_v, q, nv, v);
+        let bu = basis_derivs(&self.knots_u, ku, u, p);
+        let bv = basis_derivs(&self.knots_v, kv, v, q);
+        // Homogeneous sums A^{(k,l)}: order 00, 10, 01, 20, 11, 02.
+        let mut a = [[0.0f64; 4]; 6];
+        for i in 0..=p {
+            let row = (ku - p + i) * nv + kv - q;
+            let mut t = [[0.0f64; 4]; 3];
+            for j in 0..=q {
+                let h = &self.hw[row + j];
+                for l in 0..3 {
+                    let c = bv[l][j];
+                    for m in 0..4 {
+                        t[l][m] += c * h[m];
+                    }
+                }
+            }
+            let (n0, n1, n2) = (bu[0][i], bu[1][i], bu[2][i]);
+            for m in 0..4 {
+                a[0][m] += n0 * t[0][m];
+                a[1][m] += n1 * t[0][m];
+                a[2][m] += n0 * t[1][m];
+                a[3][m] += n2 * t[0][m];
+                a[4][m] += n1 * t[1][m];
+                a[5][m] += n0 * t[2][m];
+            }
+        }
+        let vec = |h: &[f64; 4]| V3::new(h[0], h[1], h[2]);
+        if !self.rational {
+            // Σ N M = 1 and its derivatives vanish in exact arithmetic.
+            return SurfaceDerivs {
+                p: P3::from(vec(&a[0])),
+                su: vec(&a[1]),
+                sv: vec(&a[2]),
+                suu: vec(&a[3]),
+                suv: vec(&a[4]),
+                svv: vec(&a[5]),
+            };
+        }
+        // Quotient rule (A4.4): A^{(k,l)} = Σ C(k,i) C(l,j) w^{(i,j)} S^{(k−i,l−j)}.
+        let w = [a[0][3], a[1][3], a[2][3], a[3][3], a[4][3], a[5][3]];
+        let s = vec(&a[0]) / w[0];
+        let su = (vec(&a[1]) - s * w[1]) / w[0];
+        let sv = (vec(&a[2]) - s * w[2]) / w[0];
+        let suu = (vec(&a[3]) - su * (2.0 * w[1]) - s * w[3]) / w[0];
+        let suv = (vec(&a[4]) - su * w[2] - sv * w[1] - s * w[4]) / w[0];
+        let svv = (vec(&a[5]) - sv * (2.0 * w[2]) - s * w[5]) / w[0];
+        SurfaceDerivs {
+            p: P3::from(s),
+            su,
+            sv,
+            suu,
+            suv,
+            svv,
+        }
+    }
+
+    fn wrap_params(&self, u: f64, v: f64) -> (f64, f64) {
+        let (du, dv) = self.domain();
+        (
+            self.period[0].map_or(u, |t| wrap(u, du[0], t)),
+            self.period[1].map_or(v, |t| wrap(v, dv[0], t)),
+        )
+    }
+
+    fn span_count(&self, dir: usize) -> usize {
+        let (p, n) = (self.degree[dir], self.n[dir]);
+        let k = if dir == 0 {
+            &self.knots_u
+        } else {
+            &self.knots_v
+        };
+        (p..n).filter(|&i| k[i] < k[i + 1]).count()
+    }
+}
+
+impl Surface for NurbsSurface {
+    fn domain(&self) -> ([f64; 2], [f64; 2]) {
+        let ([p, q], [nu, nv]) = (self.degree, self.n);
+        (
+            [self.knots_u[p], self.knots_u[nu]],
+            [self.knots_v[q], self.knots_v[nv]],
+        )
+    }
+    fn point(&self, u: f64, v: f64) -> P3 {
+        self.derivs(u, v).p
+    }
+    fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
+        let (u, v) = self.wrap_params(u, v);
+        self.eval(u, v)
+    }
+    /// Newton on the closest-point problem (module documentation). Without
+    /// a hint the start is the best point of an n_u × n_v grid, n = 3 ×
+    /// (number of knot spans) clamped to [16, 48].
+    fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
+        newton_inverse(self, p, hint, self.size, || {
+            let b = ParamBox::of(self);
+            let us = b.samples(0, (3 * self.span_count(0)).clamp(16, 48));
+            let vs = b.samples(1, (3 * self.span_count(1)).clamp(16, 48));
+            us.iter()
+                .flat_map(|&u| vs.iter().map(move |&v| [u, v]))
+                .collect()
+        })
+    }
+    fn periods(&self) -> [Option<f64>; 2] {
+        self.period
+    }
+    fn is_singular(&self, u: f64, v: f64) -> bool {
+        area_singular(&self.derivs(u, v), self.scale)
+    }
+}
+
+/// The clamped uniform knot vector on [0, 1] for `n` control points
+/// (empty when the degree or count is invalid; [`Nurbs::new`] reports it).
+fn clamped_uniform_knots(p: usize, n: usize) -> Vec<f64> {
+    if p == 0 || n < p + 1 {
+        return Vec::new();
+    }
+    let spans = n - p;
+    let mut k = vec![0.0; p + 1];
+    k.extend((1..spans).map(|i| i as f64 / spans as f64));
+    k.extend(std::iter::repeat(1.0).take(p + 1));
+    k
+}
+
+/// The knot span k ∈ [p, n−1] with u_k ≤ t < u_{k+1}, u_k < u_{k+1} (A2.1);
+/// outside the domain (and NaN) the first or last non-empty span, as for
+/// the curves.
+fn find_span(knots: &[f64], p: usize, n: usize, t: f64) -> usize {
+    let idx = knots[p..=n].partition_point(|&x| x <= t);
+    let mut k = (p + idx).saturating_sub(1).clamp(p, n - 1);
+    while k > p && knots[k] == knots[k + 1] {
+        k -= 1;
+    }
+    while k < n - 1 && knots[k] == knots[k + 1] {
+        k += 1;
+    }
+    k
+}
+
+/// Non-zero basis functions N_{span−p+j,p} and their first two derivatives
+/// at `t` (A2.3 with n = 2): `ders[k][j]`. Precondition: non-empty span.
+#[allow(clippy::needless_range_loop)] // index form of the book's algorithm
+fn basis_derivs(knots: &[f64], span: usize, t: f64, p: usize) -> [[f64; MAXP]; 3] {
+    let mut ndu = [[0.0f64; MAXP]; MAXP];
+    let mut left = [0.0f64; MAXP];
+    let mut right = [0.0f64; MAXP];
+    ndu[0][0] = 1.0;
+    for j in 1..=p {
+        left[j] = t - knots[span + 1 - j];
+        right[j] = knots[span + j] - t;
+        let mut saved = 0.0;
+        for r in 0..j {
+            ndu[j][r] = right[r + 1] + left[j - r];
+            let temp = ndu[r][j - 1] / ndu[j][r];
+            ndu[r][j] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        ndu[j][j] = saved;
+    }
+    let mut ders = [[0.0f64; MAXP]; 3];
+    for j in 0..=p {
+        ders[0][j] = ndu[j][p];
+    }
+    let nd = p.min(2);
+    let mut a = [[0.0f64; MAXP]; 2];
+    for r in 0..=p {
+        let (mut s1, mut s2) = (0, 1);
+        a[0][0] = 1.0;
+        for k in 1..=nd {
+            let mut d = 0.0;
+            let rk = r as isize - k as isize;
+            let pk = p - k;
+            if rk >= 0 {
+                a[s2][0] = a[s1][0] / ndu[pk + 1][rk as usize];
+                d = a[s2][0] * ndu[rk as usize][pk];
+            }
+            let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
+            let j2 = if r <= pk + 1 { k - 1 } else { p - r };
+            for j in j1..=j2 {
+                let c = (rk + j as isize) as usize;
+                a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][c];
+                d += a[s2][j] * ndu[c][pk];
+            }
+            if r <= pk {
+                a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r];
+                d += a[s2][k] * ndu[r][pk];
+            }
+            ders[k][r] = d;
+            std::mem::swap(&mut s1, &mut s2);
+        }
+    }
+    // Multiply by p!/(p−k)!.
+    let mut f = p as f64;
+    for k in 1..=nd {
+        for j in 0..=p {
+            ders[k][j] *= f;
+        }
+        f *= (p - k) as f64;
+    }
+    ders
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn basis_matches_the_book_example() {
+        // The NURBS Book Ex. 2.4: t = 5/2, p = 2, span 4.
+        let u = [0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 4.0, 4.0, 5.0, 5.0, 5.0];
+        let d = basis_derivs(&u, 4, 2.5, 2);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-14;
+        assert!(close(d[0][0], 1.0 / 8.0) && close(d[0][1], 6.0 / 8.0));
+        assert!(close(d[0][2], 1.0 / 8.0));
+        assert!(close(d[1][0], -0.5) && close(d[1][1], 0.0) && close(d[1][2], 0.5));
+        // N'' of the three quadratics on a uniform span: 1, −2, 1.
+        assert!(close(d[2][0], 1.0) && close(d[2][1], -2.0) && close(d[2][2], 1.0));
+        assert_eq!(find_span(&u, 2, 8, 2.5), 4);
+        assert_eq!(find_span(&u, 2, 8, 5.0), 7);
+    }
+
+    #[test]
+    fn cubic_basis_second_derivatives_against_differences() {
+        let u = [0.0, 0.0, 0.0, 0.0, 0.3, 0.45, 1.0, 1.0, 1.0, 1.0];
+        for &t in &[0.1, 0.37, 0.7] {
+            let span = find_span(&u, 3, 6, t);
+            let h = 1e-5;
+            let (a, b, c) = (
+                basis_derivs(&u, span, t - h, 3),
+                basis_derivs(&u, span, t, 3),
+                basis_derivs(&u, span, t + h, 3),
+            );
+            for j in 0..4 {
+                let fd1 = (c[0][j] - a[0][j]) / (2.0 * h);
+                let fd2 = (c[1][j] - a[1][j]) / (2.0 * h);
+                assert!((fd1 - b[1][j]).abs() < 1e-7, "N' {j} at {t}");
+                assert!((fd2 - b[2][j]).abs() < 1e-5, "N'' {j} at {t}");
+            }
+        }
+    }
+}
