@@ -97,6 +97,11 @@ pub struct Model {
     pub edges: Vec<Edge>,
     pub faces: Vec<Face>,
     pub volumes: Vec<Volume>,
+    /// Parameter-space curves: for (face, edge), the curve in the face's
+    /// (u,v) whose image is the edge (its x, y are u, v), on the edge's own
+    /// parameter range. Optional; where absent the engine maps edge nodes
+    /// to (u,v) with [`crate::geom::Surface::inverse`].
+    pub pcurves: std::collections::HashMap<(u32, u32), Arc<dyn Curve>>,
     /// Where the model came from (a file path), for error messages.
     pub source: Option<String>,
 }

@@ -42,7 +42,7 @@ use system::System;
 const APEX_LAYER: bool = false;
 /// Bubbles closer than this many spacings to a singular point of the
 /// parametrization are connected in their tangent plane (a cap), not in (u,v).
-const CAP_RADIUS: f64 = 3.0;
+const CAP_RADIUS: f64 = 5.0;
 
 /// Rounds of edge relaxation and Delaunay flips after connection
 /// ([`improve`]).
@@ -177,6 +177,13 @@ impl MeshError {
             },
         }
     }
+}
+
+/// The parameter box `(lo, hi)` of a surface (its `domain()` is
+/// `([u0, u1], [v0, v1])`).
+fn domain_box(s: &dyn crate::geom::Surface) -> ([f64; 2], [f64; 2]) {
+    let (u, v) = s.domain();
+    ([u[0], v[0]], [u[1], v[1]])
 }
 
 fn check_spacing(d: f64, point: P3, entity: EntityRef) -> Result<f64, MeshError> {
@@ -456,18 +463,46 @@ fn mesh_face(
     let mut fixed_ids: Vec<u32> = Vec::new();
     let mut fixed_uv: Vec<[f64; 2]> = Vec::new();
     let mut hint: Option<[f64; 2]> = None;
-    let mut add_fixed = |id: u32, hint: &mut Option<[f64; 2]>| -> Result<usize, MeshError> {
+    // (u,v) of a boundary node: from the edge's pcurve on this face when the
+    // model has one (exact), else by inverse mapping from the previous node
+    let pcurve_uv = |edge: u32, id: u32, at_end: Option<bool>| -> Option<[f64; 2]> {
+        let pc = model.pcurves.get(&(fi as u32, edge))?;
+        let e = &model.edges[edge as usize];
+        let t = match at_end {
+            Some(false) => e.t0,
+            Some(true) => e.t1,
+            None => mesh.nodes[id as usize].params[0],
+        };
+        let q = pc.point(t);
+        Some([q.x, q.y])
+    };
+    let mut add_fixed = |id: u32,
+                         known: Option<[f64; 2]>,
+                         hint: &mut Option<[f64; 2]>|
+     -> Result<usize, MeshError> {
         if let Some(&l) = local_of.get(&id) {
             *hint = Some(fixed_uv[l]);
             return Ok(l);
         }
         let p = mesh.nodes[id as usize].pos;
-        let uv = surface.inverse(&p, *hint).ok_or_else(|| {
-            MeshError::Invalid(format!(
-                "boundary point ({}, {}, {}) cannot be mapped to the surface's (u,v)",
-                p.x, p.y, p.z
-            ))
-        })?;
+        let uv = match known {
+            Some(mut uv) => {
+                // a pcurve may end on the far side of a seam (u = 2π)
+                let lo = domain_box(surface).0;
+                for c in 0..2 {
+                    if let Some(p) = surface.periods()[c] {
+                        uv[c] = lo[c] + (uv[c] - lo[c]).rem_euclid(p);
+                    }
+                }
+                uv
+            }
+            None => surface.inverse(&p, *hint).ok_or_else(|| {
+                MeshError::Invalid(format!(
+                    "boundary point ({}, {}, {}) cannot be mapped to the surface's (u,v)",
+                    p.x, p.y, p.z
+                ))
+            })?,
+        };
         *hint = Some(uv);
         let l = fixed_ids.len();
         local_of.insert(id, l);
@@ -489,10 +524,26 @@ fn mesh_face(
     let mut boundary: Vec<[usize; 2]> = Vec::new();
     let mut loop_locals: Vec<Vec<usize>> = Vec::new();
     for (li, lp) in face.loops.iter().enumerate() {
-        let mut ids: Vec<u32> = Vec::new();
+        // node ids with their (u,v) when a pcurve gives it
+        let mut ids: Vec<(u32, Option<[f64; 2]>)> = Vec::new();
         for u in &lp.edges {
             let c = chain(u)?;
-            if let Some(&last) = ids.last() {
+            let m = c.len();
+            let with_uv: Vec<(u32, Option<[f64; 2]>)> = c
+                .iter()
+                .enumerate()
+                .map(|(k, &id)| {
+                    let at_end = if k == 0 {
+                        Some(!u.forward)
+                    } else if k + 1 == m {
+                        Some(u.forward)
+                    } else {
+                        None
+                    };
+                    (id, pcurve_uv(u.edge, id, at_end))
+                })
+                .collect();
+            if let Some(&(last, _)) = ids.last() {
                 if last != c[0] {
                     return Err(MeshError::Invalid(format!(
                         "loop {li} is not connected at edge {} (its first vertex is not the previous edge's last)",
@@ -501,15 +552,15 @@ fn mesh_face(
                 }
                 ids.pop();
             }
-            ids.extend(c);
+            ids.extend(with_uv);
         }
-        if ids.len() < 3 || ids.first() != ids.last() {
+        if ids.len() < 3 || ids.first().map(|x| x.0) != ids.last().map(|x| x.0) {
             return Err(MeshError::Invalid(format!("loop {li} is not closed")));
         }
         ids.pop();
         let locals: Vec<usize> = ids
             .iter()
-            .map(|&id| add_fixed(id, &mut hint))
+            .map(|&(id, uv)| add_fixed(id, uv, &mut hint))
             .collect::<Result<_, _>>()?;
         for k in 0..locals.len() {
             segments.push([locals[k], locals[(k + 1) % locals.len()]]);
@@ -523,14 +574,14 @@ fn mesh_face(
         })?;
         let locals: Vec<usize> = c
             .iter()
-            .map(|&id| add_fixed(id, &mut hint))
+            .map(|&id| add_fixed(id, None, &mut hint))
             .collect::<Result<_, _>>()?;
         for w in locals.windows(2) {
             segments.push([w[0], w[1]]);
         }
     }
     for &v in &face.embedded_vertices {
-        add_fixed(v, &mut hint)?;
+        add_fixed(v, None, &mut hint)?;
     }
     let loops_uv: Vec<Vec<[f64; 2]>> = loop_locals
         .iter()
@@ -538,20 +589,6 @@ fn mesh_face(
         .collect();
     // directed boundary segments with the face on their left: the first loop
     // is the outer one (face inside it), the others holes (face outside)
-    for (li, (locals, luv)) in loop_locals.iter().zip(&loops_uv).enumerate() {
-        let area2: f64 = (0..luv.len())
-            .map(|k| {
-                let (a, b) = (luv[k], luv[(k + 1) % luv.len()]);
-                a[0] * b[1] - b[0] * a[1]
-            })
-            .sum();
-        let ccw = area2 > 0.0;
-        let face_on_left = if li == 0 { ccw } else { !ccw };
-        for k in 0..locals.len() {
-            let (a, b) = (locals[k], locals[(k + 1) % locals.len()]);
-            boundary.push(if face_on_left { [a, b] } else { [b, a] });
-        }
-    }
     let periods = surface.periods();
     if periods[0].is_some() && periods[1].is_some() && !loops_uv.is_empty() {
         return Err(MeshError::Unsupported(
@@ -560,10 +597,54 @@ fn mesh_face(
         ));
     }
     let region = if periods.iter().any(|p| p.is_some()) || loops_uv.is_empty() {
-        Region::periodic(&loops_uv, periods, surface.domain())
+        Region::periodic(&loops_uv, periods, domain_box(surface))
     } else {
         Region::new(&loops_uv)
     };
+    // directed boundary segments with the face on their left. On a plane
+    // (or any non-periodic parametrization) the first loop is the outer one
+    // (face inside it) and the others holes, told apart by signed area; on a
+    // periodic surface a loop may close only through the period (a circle
+    // around a cylinder), so the side is found by asking the region about
+    // points just left of the loop's segments.
+    for (li, (locals, luv)) in loop_locals.iter().zip(&loops_uv).enumerate() {
+        let face_on_left = if periods.iter().all(|p| p.is_none()) {
+            let area2: f64 = (0..luv.len())
+                .map(|k| {
+                    let (a, b) = (luv[k], luv[(k + 1) % luv.len()]);
+                    a[0] * b[1] - b[0] * a[1]
+                })
+                .sum();
+            let ccw = area2 > 0.0;
+            if li == 0 {
+                ccw
+            } else {
+                !ccw
+            }
+        } else {
+            let mut votes = 0i32;
+            let m = luv.len();
+            for k in (0..m).step_by((m / 16).max(1)) {
+                let a = luv[k];
+                let mut b = luv[(k + 1) % m];
+                for c in 0..2 {
+                    if let Some(p) = periods[c] {
+                        b[c] = a[c] + ((b[c] - a[c]) - p * ((b[c] - a[c]) / p).round());
+                    }
+                }
+                let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+                let left = [mid[0] - 0.01 * (b[1] - a[1]), mid[1] + 0.01 * (b[0] - a[0])];
+                let right = [mid[0] + 0.01 * (b[1] - a[1]), mid[1] - 0.01 * (b[0] - a[0])];
+                votes += region.contains(left[0], left[1]) as i32
+                    - region.contains(right[0], right[1]) as i32;
+            }
+            votes >= 0
+        };
+        for k in 0..locals.len() {
+            let (a, b) = (locals[k], locals[(k + 1) % locals.len()]);
+            boundary.push(if face_on_left { [a, b] } else { [b, a] });
+        }
+    }
     let (lo, hi) = region.bbox();
     let carrier = OnFace {
         surface,
@@ -755,7 +836,7 @@ fn mesh_face(
             d: &sys.d,
             singular: &singular,
             periods,
-            origin: [surface.domain().0[0], surface.domain().0[1]],
+            origin: domain_box(surface).0,
         };
         connect::triangulate_surface(&pts, &segments, &boundary)?
     };
@@ -798,6 +879,12 @@ fn mesh_face(
         });
     }
     fr.triangles = tris.len();
+    if tris.is_empty() {
+        return Err(MeshError::Invalid(
+            "the face produced no triangles (is its parameter region empty, or the spacing larger than the face?)"
+                .into(),
+        ));
+    }
     timings.connect_s += t3.elapsed().as_secs_f64();
     Ok(fr)
 }

@@ -107,11 +107,11 @@ impl Region {
         }
         // bounds: the loops' box on a plane, the domain where periodic or
         // where there are no loops
-        for c in 0..2 {
-            if periods[c].is_some() || loops.is_empty() {
-                lo[c] = domain.0[c];
-                hi[c] = domain.1[c];
-            }
+        // on a periodic surface a face may reach a singular edge of the
+        // domain that is no loop (a cone down to its apex)
+        if periods.iter().any(|p| p.is_some()) || loops.is_empty() {
+            lo = domain.0;
+            hi = domain.1;
         }
         let nb = segs.len().clamp(1, 1 << 16);
         let (b0, b1) = if segs.is_empty() {

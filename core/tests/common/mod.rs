@@ -190,7 +190,7 @@ pub struct Sphere(pub f64);
 impl bubblemesh_core::geom::Surface for Sphere {
     fn domain(&self) -> ([f64; 2], [f64; 2]) {
         let h = std::f64::consts::FRAC_PI_2;
-        ([0.0, -h], [std::f64::consts::TAU, h])
+        ([0.0, std::f64::consts::TAU], [-h, h])
     }
     fn point(&self, u: f64, v: f64) -> P3 {
         P3::new(v.cos() * u.cos(), v.cos() * u.sin(), v.sin()) * self.0

@@ -12,10 +12,12 @@
 mod arc;
 mod line;
 mod nurbs;
+mod on_surface;
 
 pub use arc::CircleArc;
 pub use line::Line;
 pub use nurbs::{Nurbs, MAX_NURBS_DEGREE};
+pub use on_surface::CurveOnSurface;
 
 use bubblemesh_core::geom::{P3, V3};
 

@@ -84,10 +84,10 @@ pub(crate) fn build(spec: &DomainSpec) -> Result<Model, Invalid> {
             ));
         }
     }
-    if spec.face.is_empty() && spec.curve.is_empty() {
+    if spec.face.is_empty() && spec.curve.is_empty() && spec.surface.is_empty() {
         return Err(Invalid::new(
             "",
-            "the file defines nothing to mesh: add at least one [[face]] or [[curve]]",
+            "the file defines nothing to mesh: add at least one [[face]], [[curve]] or [[surface]]",
         ));
     }
 
@@ -177,6 +177,7 @@ pub(crate) fn build(spec: &DomainSpec) -> Result<Model, Invalid> {
     for c in &curves {
         b.path(c, false)?;
     }
+    super::surface::add_surfaces(&spec.surface, &mut b.model)?;
     Ok(b.model)
 }
 

@@ -37,6 +37,7 @@ mod build;
 mod error;
 mod planar;
 mod spec;
+mod surface;
 
 use std::path::Path;
 

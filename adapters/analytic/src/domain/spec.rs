@@ -22,6 +22,8 @@ pub(crate) struct DomainSpec {
     pub face: Vec<FaceSpec>,
     #[serde(default)]
     pub curve: Vec<PathSpec>,
+    #[serde(default)]
+    pub surface: Vec<super::surface::SurfaceSpec>,
 }
 
 /// One `[[face]]`.
