@@ -10,6 +10,8 @@ relative to the repository root):
   C  2x1 plate with two holes, graded d         examples/plate_two_holes.toml
   D  regular hexagon side 1, d = 0.1            examples/hexagon.toml
   E  unit square, d = 0.002 (large)             examples/square.toml
+  F  sphere r = 1, d = 0.05 (surface)           examples/sphere.toml
+  G  torus R = 1, r = 0.3, d = 0.03 (surface)   examples/torus.toml
 
 Every run is a fresh process.  bubblemesh: `bubblemesh mesh IN -o OUT --size EXPR
 --report REP` (default stages; case B also with --fast = stage 1 alone); its time is
@@ -47,13 +49,15 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SQ2 = math.sqrt(2.0)
 
-ALL_CASES = ["A", "B", "C", "D", "E"]
+ALL_CASES = ["A", "B", "C", "D", "E", "F", "G"]
 
 # The domain file of each meshkit geometry.
 DOMAIN = {
     "square": "examples/square.toml",
     "plate": "examples/plate_two_holes.toml",
     "hexagon": "examples/hexagon.toml",
+    "sphere": "examples/sphere.toml",
+    "torus": "examples/torus.toml",
 }
 
 # meshkit's CASES[c]["d"] (numpy syntax) written in bubblemesh's --size syntax
@@ -66,6 +70,8 @@ SIZE = {
     "C": "0.02 + 0.1*max(min(sqrt((x-0.5)^2 + (y-0.5)^2), sqrt((x-1.5)^2 + (y-0.5)^2)) - 0.2, 0)",
     "D": "0.1",
     "E": "0.002",
+    "F": "0.05",
+    "G": "0.03",
 }
 
 # Extra bubblemesh variants: case -> [(mesher label, extra CLI flags)].
@@ -349,6 +355,9 @@ def evaluate(case, recs):
         "conforming=%s boundary_closed=%s inverted=%s unreferenced=%s duplicates=%s" % (
             v.get("conforming"), v.get("boundary_closed"), v.get("n_inverted"),
             v.get("unreferenced_nodes"), v.get("duplicate_node_pairs")))
+    if case in ("F", "G"):
+        add("surface q mean >= 0.99", "PASS" if t["q_mean"] >= 0.99 else "FAIL", "q mean = %.4f" % t["q_mean"])
+        add("surface q min >= 0.85", "PASS" if t["q_min"] >= 0.85 else "FAIL", "q min = %.4f" % t["q_min"])
     if case in ("A", "B", "C"):
         add("q mean >= %.2f" % Q_MEAN_TARGET, "PASS" if t["q_mean"] >= Q_MEAN_TARGET else "FAIL",
             "q mean = %.4f" % t["q_mean"])
@@ -563,7 +572,7 @@ def build_report(res):
 # --------------------------------------------------------------------------- #
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--cases", default=",".join(ALL_CASES), help="comma list out of A,B,C,D,E")
+    ap.add_argument("--cases", default=",".join(ALL_CASES), help="comma list out of A,B,C,D,E,F,G")
     ap.add_argument("--skip-gmsh", action="store_true", help="run bubblemesh only")
     ap.add_argument("--reps", type=int, default=0,
                     help="timing runs per mesher, median reported (default 3; 1 for E)")

@@ -237,7 +237,7 @@ pub struct Torus(pub f64, pub f64);
 
 impl bubblemesh_core::geom::Surface for Torus {
     fn domain(&self) -> ([f64; 2], [f64; 2]) {
-        ([0.0, 0.0], [std::f64::consts::TAU, std::f64::consts::TAU])
+        ([0.0, std::f64::consts::TAU], [0.0, std::f64::consts::TAU])
     }
     fn point(&self, u: f64, v: f64) -> P3 {
         let w = self.0 + self.1 * v.cos();
