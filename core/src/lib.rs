@@ -20,6 +20,7 @@
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality.
 
 pub mod connect;
+pub mod curvature;
 pub mod engine;
 pub mod geom;
 pub mod mesh;
