@@ -1,0 +1,629 @@
+//! `bm_mesh`: meshing a model and reading the result.
+
+use std::ffi::{c_char, c_int, c_void, CString};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::Path;
+use std::sync::Arc;
+
+use bubblemesh_core::engine::{MeshError, Options, Progress, Report};
+use bubblemesh_core::model::EntityRef;
+use bubblemesh_core::{mesh_model, Mesh};
+
+use crate::error::{
+    abort_with, bm_result, from_unwind, guard, guard_void, in_callback_scope, Error, Result,
+};
+use crate::geometry::UserPtr;
+use crate::model::{bm_model, ModelObj};
+use crate::spacing::{bm_spacing, spacing_obj};
+use crate::{free_handle, into_handle, need, object, put, utf8, Object};
+
+/// A finished mesh (opaque): nodes, line segments on edges, triangles on
+/// faces, tetrahedra in volumes, each with the model entity it came from.
+/// Independent of the model and spacing it was made from. Free with
+/// `bm_mesh_free`.
+#[allow(non_camel_case_types)]
+pub struct bm_mesh {
+    _private: [u8; 0],
+}
+
+/// A model entity: `dim` 0 vertex, 1 edge, 2 face, 3 volume; `id` its
+/// 0-based id in the model.
+#[allow(non_camel_case_types)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct bm_entity {
+    pub dim: i32,
+    pub id: u32,
+}
+
+/// Progress of a run: `phase` (a short name such as "relax"), the entity
+/// being meshed, the step and the step limit. Return 0 to go on, non-zero
+/// to stop meshing (`bm_mesh_generate_ex` then returns `BM_ERR_CANCELLED`).
+#[allow(non_camel_case_types)]
+pub type bm_progress_fn = Option<
+    unsafe extern "C" fn(
+        user: *mut c_void,
+        phase: *const c_char,
+        dim: c_int,
+        id: u32,
+        step: usize,
+        max_steps: usize,
+    ) -> c_int,
+>;
+
+/// Meshing options; fill with `bm_options_init`, then change fields.
+#[allow(non_camel_case_types)]
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct bm_options {
+    /// Highest dimension to mesh: 0 vertices, 1 edges, 2 faces, 3 volumes
+    /// (not implemented: `BM_ERR_UNSUPPORTED`), -1 the model's highest.
+    pub dim: c_int,
+    /// Non-zero: stage 1 only (hierarchical placement), fast, lower quality.
+    pub fast: c_int,
+    /// Step limit of the stage-2 relaxation per face; 0 for the default.
+    pub max_steps: usize,
+    /// Optional (NULL): called during the relaxation.
+    pub progress: bm_progress_fn,
+    pub progress_user: *mut c_void,
+}
+
+#[repr(C)]
+pub(crate) struct MeshObj {
+    magic: u64,
+    mesh: Mesh,
+    report: Report,
+}
+
+impl Object for MeshObj {
+    const MAGIC: u64 = 0x626d_5f6d_6573_6821; // "bm_mesh!"
+    const KIND: &'static str = "bm_mesh";
+}
+
+unsafe fn mesh_obj<'a>(p: *const bm_mesh) -> Result<&'a MeshObj> {
+    unsafe { object::<MeshObj>(p as *const c_void, "mesh") }
+}
+
+/// Fills `*options` with the defaults: dim -1 (the model's), full quality,
+/// default step limit, no progress callback.
+#[no_mangle]
+pub unsafe extern "C" fn bm_options_init(options: *mut bm_options) -> bm_result {
+    guard("bm_options_init", || unsafe {
+        put(
+            options,
+            "options",
+            bm_options {
+                dim: -1,
+                fast: 0,
+                max_steps: 0,
+                progress: None,
+                progress_user: std::ptr::null_mut(),
+            },
+        )
+    })
+}
+
+/// The code for an engine error: the innermost cause decides.
+fn code_of(e: &MeshError) -> bm_result {
+    #[allow(unreachable_patterns)]
+    match e {
+        MeshError::BadSpacing { .. } | MeshError::TooManyBubbles { .. } => {
+            bm_result::BM_ERR_SPACING
+        }
+        MeshError::Invalid(_) => bm_result::BM_ERR_GEOMETRY,
+        MeshError::Unsupported(_) => bm_result::BM_ERR_UNSUPPORTED,
+        MeshError::Connect(_) => bm_result::BM_ERR_MESH,
+        MeshError::In { source, .. } => code_of(source),
+        _ => bm_result::BM_ERR_MESH,
+    }
+}
+
+fn generate(
+    model: *const bm_model,
+    spacing: *const bm_spacing,
+    opts: bm_options,
+    out: *mut *mut bm_mesh,
+) -> Result<()> {
+    let m = unsafe { object::<ModelObj>(model as *const c_void, "model")? };
+    let s = unsafe { spacing_obj(spacing)? };
+    need(out, "out")?;
+    if !(-1..=3).contains(&opts.dim) {
+        return Err(Error::range(format!(
+            "dim = {} must be -1 (the model's), 0, 1, 2 or 3",
+            opts.dim
+        )));
+    }
+    let model = m.lock()?;
+    let _claim = s.claim()?;
+    if opts.dim >= 0 && opts.dim as u8 > model.dim() {
+        return Err(Error::range(format!(
+            "dim = {} but the model's highest dimension is {} ({} vertices, {} edges, {} faces, \
+             {} volumes)",
+            opts.dim,
+            model.dim(),
+            model.vertices.len(),
+            model.edges.len(),
+            model.faces.len(),
+            model.volumes.len()
+        )));
+    }
+    if opts.dim == 3 || (opts.dim < 0 && model.dim() == 3) {
+        return Err(Error::new(
+            bm_result::BM_ERR_UNSUPPORTED,
+            format!(
+                "volume meshing (dim 3) is not implemented yet; mesh the model's {} faces \
+                 with dim 2 (volumes are kept as entities)",
+                model.faces.len()
+            ),
+        ));
+    }
+    let mut o = Options {
+        dim: (opts.dim >= 0).then_some(opts.dim as u8),
+        fast: opts.fast != 0,
+        ..Default::default()
+    };
+    if opts.max_steps > 0 {
+        o.relax.max_steps = opts.max_steps;
+    }
+    if let Some(f) = opts.progress {
+        let user = UserPtr(opts.progress_user);
+        o.progress = Some(Arc::new(move |p: Progress| {
+            let phase = CString::new(p.phase).unwrap_or_default();
+            let rc = unsafe {
+                f(
+                    user.get(),
+                    phase.as_ptr(),
+                    p.entity.dim as c_int,
+                    p.entity.id,
+                    p.step,
+                    p.max_steps,
+                )
+            };
+            if rc != 0 {
+                abort_with(Error::new(
+                    bm_result::BM_ERR_CANCELLED,
+                    format!(
+                        "cancelled by the progress callback (it returned {rc}) at step {} of {} \
+                         on {}",
+                        p.step, p.max_steps, p.entity
+                    ),
+                ));
+            }
+        }));
+    }
+    // The unwind of a failing callback is caught here, inside the model's
+    // lock, so the lock is released normally.
+    let r = in_callback_scope(|| {
+        catch_unwind(AssertUnwindSafe(|| mesh_model(&model, s.spacing(), &o)))
+    });
+    let (mesh, report) = match r {
+        Err(payload) => return Err(from_unwind(payload)),
+        Ok(Err(e)) => return Err(Error::new(code_of(&e), e.to_string())),
+        Ok(Ok(x)) => x,
+    };
+    unsafe {
+        put(
+            out,
+            "out",
+            into_handle(MeshObj {
+                magic: MeshObj::MAGIC,
+                mesh,
+                report,
+            }),
+        )
+    }
+}
+
+/// Meshes `model` with `spacing` up to dimension `dim` (-1: the model's
+/// highest; 3 gives `BM_ERR_UNSUPPORTED`: volume meshing is not
+/// implemented), `fast` non-zero for stage 1 only. The new mesh goes to
+/// `*out`. Callbacks of the model and the spacing are called from this
+/// thread only, one at a time, before this returns.
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_generate(
+    model: *const bm_model,
+    spacing: *const bm_spacing,
+    dim: c_int,
+    fast: c_int,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_mesh_generate", || {
+        generate(
+            model,
+            spacing,
+            bm_options {
+                dim,
+                fast,
+                max_steps: 0,
+                progress: None,
+                progress_user: std::ptr::null_mut(),
+            },
+            out,
+        )
+    })
+}
+
+/// `bm_mesh_generate` with options (a step limit, a progress callback that
+/// can cancel).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_generate_ex(
+    model: *const bm_model,
+    spacing: *const bm_spacing,
+    options: *const bm_options,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_mesh_generate_ex", || {
+        if options.is_null() {
+            return Err(Error::null("options"));
+        }
+        generate(model, spacing, unsafe { *options }, out)
+    })
+}
+
+/// Meshes the STEP file at `path`: not available in this build (STEP import
+/// arrives with the STEP adapter). Returns `BM_ERR_UNSUPPORTED`; describe
+/// the model through `bm_model_*` callbacks instead.
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_step_file(
+    path: *const c_char,
+    spacing: *const bm_spacing,
+    dim: c_int,
+    fast: c_int,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    let _ = fast;
+    guard("bm_mesh_step_file", || unsafe {
+        let path = utf8(path, "path")?;
+        spacing_obj(spacing)?;
+        need(out, "out")?;
+        if !(-1..=3).contains(&dim) {
+            return Err(Error::range(format!(
+                "dim = {dim} must be -1, 0, 1, 2 or 3"
+            )));
+        }
+        Err(Error::new(
+            bm_result::BM_ERR_UNSUPPORTED,
+            format!(
+                "cannot mesh '{path}': STEP import is not available in this build yet; describe \
+                 the model through the bm_model_* functions instead"
+            ),
+        ))
+    })
+}
+
+/// Frees a mesh (NULL: nothing).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_free(mesh: *mut bm_mesh) {
+    guard_void("bm_mesh_free", || unsafe {
+        free_handle::<MeshObj>(mesh as *mut c_void)
+    })
+}
+
+/// Copies `items` into `out[0..len]`, which must hold them all (`out` may be
+/// NULL only when there is nothing to copy).
+unsafe fn copy_out<T>(
+    out: *mut T,
+    len: usize,
+    per: usize,
+    count: usize,
+    what: &str,
+    items: impl Iterator<Item = T>,
+) -> Result<()> {
+    let need_len = per * count;
+    if need_len == 0 {
+        return Ok(());
+    }
+    if out.is_null() {
+        return Err(Error::null("out"));
+    }
+    if len < need_len {
+        return Err(Error::range(format!(
+            "the buffer holds {len} values but the mesh's {what} need {need_len} \
+             ({count} x {per})"
+        )));
+    }
+    let mut k = 0;
+    for it in items.take(need_len) {
+        unsafe { out.add(k).write(it) };
+        k += 1;
+    }
+    debug_assert_eq!(k, need_len);
+    Ok(())
+}
+
+fn entity(e: EntityRef) -> bm_entity {
+    bm_entity {
+        dim: e.dim as i32,
+        id: e.id,
+    }
+}
+
+/// The number of nodes.
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_node_count(
+    mesh: *const bm_mesh,
+    out_count: *mut usize,
+) -> bm_result {
+    guard("bm_mesh_node_count", || unsafe {
+        let m = mesh_obj(mesh)?;
+        put(out_count, "out_count", m.mesh.nodes.len())
+    })
+}
+
+/// The number of line segments (on model edges).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_line_count(
+    mesh: *const bm_mesh,
+    out_count: *mut usize,
+) -> bm_result {
+    guard("bm_mesh_line_count", || unsafe {
+        let m = mesh_obj(mesh)?;
+        put(out_count, "out_count", m.mesh.lines.len())
+    })
+}
+
+/// The number of triangles (on model faces).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_triangle_count(
+    mesh: *const bm_mesh,
+    out_count: *mut usize,
+) -> bm_result {
+    guard("bm_mesh_triangle_count", || unsafe {
+        let m = mesh_obj(mesh)?;
+        put(out_count, "out_count", m.mesh.triangles.len())
+    })
+}
+
+/// The number of tetrahedra (in model volumes; 0 until volume meshing
+/// exists).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_tetrahedron_count(
+    mesh: *const bm_mesh,
+    out_count: *mut usize,
+) -> bm_result {
+    guard("bm_mesh_tetrahedron_count", || unsafe {
+        let m = mesh_obj(mesh)?;
+        put(out_count, "out_count", m.mesh.tetrahedra.len())
+    })
+}
+
+/// Copies the node coordinates, x y z per node, into `xyz` (`len` doubles,
+/// at least 3 x node count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_nodes(
+    mesh: *const bm_mesh,
+    xyz: *mut f64,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_nodes", || unsafe {
+        let m = mesh_obj(mesh)?;
+        let n = &m.mesh.nodes;
+        copy_out(
+            xyz,
+            len,
+            3,
+            n.len(),
+            "node coordinates",
+            n.iter().flat_map(|n| [n.pos.x, n.pos.y, n.pos.z]),
+        )
+    })
+}
+
+/// Copies each node's parameters on its entity, 2 per node (t and 0 on an
+/// edge, u and v on a face, 0 and 0 on a vertex), into `uv` (`len` doubles,
+/// at least 2 x node count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_node_params(
+    mesh: *const bm_mesh,
+    uv: *mut f64,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_node_params", || unsafe {
+        let m = mesh_obj(mesh)?;
+        let n = &m.mesh.nodes;
+        copy_out(
+            uv,
+            len,
+            2,
+            n.len(),
+            "node parameters",
+            n.iter().flat_map(|n| n.params),
+        )
+    })
+}
+
+/// Copies the entity each node lies on (a vertex, an edge, a face) into
+/// `out` (`len` entries, at least the node count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_node_entities(
+    mesh: *const bm_mesh,
+    out: *mut bm_entity,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_node_entities", || unsafe {
+        let m = mesh_obj(mesh)?;
+        let n = &m.mesh.nodes;
+        copy_out(
+            out,
+            len,
+            1,
+            n.len(),
+            "node entities",
+            n.iter().map(|n| entity(n.entity)),
+        )
+    })
+}
+
+/// Copies the line segments, 2 node indices (0-based) each, into `out`
+/// (`len` values, at least 2 x line count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_lines(
+    mesh: *const bm_mesh,
+    out: *mut u32,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_lines", || unsafe {
+        let els = &mesh_obj(mesh)?.mesh.lines;
+        copy_out(
+            out,
+            len,
+            2,
+            els.len(),
+            "lines",
+            els.iter().flat_map(|e| e.nodes),
+        )
+    })
+}
+
+/// Copies the triangles, 3 node indices (0-based) each, counter-clockwise
+/// in their face's (u,v), into `out` (`len` values, at least 3 x
+/// triangle count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_triangles(
+    mesh: *const bm_mesh,
+    out: *mut u32,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_triangles", || unsafe {
+        let els = &mesh_obj(mesh)?.mesh.triangles;
+        copy_out(
+            out,
+            len,
+            3,
+            els.len(),
+            "triangles",
+            els.iter().flat_map(|e| e.nodes),
+        )
+    })
+}
+
+/// Copies the tetrahedra, 4 node indices (0-based) each, into `out`
+/// (`len` values, at least 4 x tetrahedron count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_tetrahedra(
+    mesh: *const bm_mesh,
+    out: *mut u32,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_tetrahedra", || unsafe {
+        let els = &mesh_obj(mesh)?.mesh.tetrahedra;
+        copy_out(
+            out,
+            len,
+            4,
+            els.len(),
+            "tetrahedra",
+            els.iter().flat_map(|e| e.nodes),
+        )
+    })
+}
+
+/// Copies the edge each line segment lies on into `out` (`len` entries,
+/// at least the line count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_line_entities(
+    mesh: *const bm_mesh,
+    out: *mut bm_entity,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_line_entities", || unsafe {
+        let els = &mesh_obj(mesh)?.mesh.lines;
+        copy_out(
+            out,
+            len,
+            1,
+            els.len(),
+            "lines",
+            els.iter().map(|e| entity(e.entity)),
+        )
+    })
+}
+
+/// Copies the face each triangle lies on into `out` (`len` entries, at
+/// least the triangle count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_triangle_entities(
+    mesh: *const bm_mesh,
+    out: *mut bm_entity,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_triangle_entities", || unsafe {
+        let els = &mesh_obj(mesh)?.mesh.triangles;
+        copy_out(
+            out,
+            len,
+            1,
+            els.len(),
+            "triangles",
+            els.iter().map(|e| entity(e.entity)),
+        )
+    })
+}
+
+/// Copies the volume each tetrahedron lies in into `out` (`len` entries,
+/// at least the tetrahedron count).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_tetrahedron_entities(
+    mesh: *const bm_mesh,
+    out: *mut bm_entity,
+    len: usize,
+) -> bm_result {
+    guard("bm_mesh_tetrahedron_entities", || unsafe {
+        let els = &mesh_obj(mesh)?.mesh.tetrahedra;
+        copy_out(
+            out,
+            len,
+            1,
+            els.len(),
+            "tetrahedra",
+            els.iter().map(|e| entity(e.entity)),
+        )
+    })
+}
+
+/// Writes the mesh to `path` (UTF-8); the format follows the extension:
+/// `.msh` (Gmsh MSH 4.1 with entity tags), `.vtu`, `.stl`, `.obj`, `.mesh`
+/// (Medit). The file is written whole or not at all.
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_write(mesh: *const bm_mesh, path: *const c_char) -> bm_result {
+    guard("bm_mesh_write", || unsafe {
+        let m = mesh_obj(mesh)?;
+        let path = utf8(path, "path")?;
+        bubblemesh_io::write(&m.mesh, Path::new(path))
+            .map_err(|e| Error::new(bm_result::BM_ERR_IO, e.to_string()))
+    })
+}
+
+/// The run's report as JSON (counts, timings per stage, per-face stage-2
+/// statistics and energy history). With `buf` NULL, stores the length
+/// (without the NUL) in `*out_len` and returns `BM_OK`; otherwise `buf`
+/// must hold the JSON and its NUL (`len` > length), else `BM_ERR_RANGE`.
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_report_json(
+    mesh: *const bm_mesh,
+    buf: *mut c_char,
+    len: usize,
+    out_len: *mut usize,
+) -> bm_result {
+    guard("bm_mesh_report_json", || unsafe {
+        let m = mesh_obj(mesh)?;
+        need(out_len, "out_len")?;
+        let json = serde_json::to_string(&m.report).map_err(|e| {
+            Error::new(
+                bm_result::BM_ERR_PANIC,
+                format!("cannot serialize the report: {e}"),
+            )
+        })?;
+        if !buf.is_null() {
+            if len <= json.len() {
+                return Err(Error::range(format!(
+                    "the buffer holds {len} bytes but the report needs {} (with its NUL)",
+                    json.len() + 1
+                )));
+            }
+            std::ptr::copy_nonoverlapping(json.as_ptr(), buf as *mut u8, json.len());
+            *buf.add(json.len()) = 0;
+        }
+        put(out_len, "out_len", json.len())
+    })
+}
