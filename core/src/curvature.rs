@@ -89,25 +89,97 @@ pub struct Curvature {
     /// Spacing at each model vertex: the smallest over the edges that end
     /// there (a vertex bubble sits on all of them).
     vertex_d: Vec<f64>,
+    /// Faces each edge bounds: an edge bubble also sits on them, so its
+    /// spacing is the smallest of the curve's and those surfaces'.
+    edge_faces: Vec<Vec<u32>>,
 }
 
 impl Curvature {
     pub fn new(model: Arc<Model>, eps: f64, d_min: f64, d_max: f64) -> Self {
-        let mut vertex_d = vec![d_max; model.vertices.len()];
-        for e in &model.edges {
-            for (v, t) in [(e.start, e.t0), (e.end, e.t1)] {
-                let d = triangle_spacing(curve_curvature(e.curve.as_ref(), t), eps, d_min, d_max);
-                let slot = &mut vertex_d[v as usize];
-                *slot = slot.min(d);
+        let mut edge_faces = vec![Vec::new(); model.edges.len()];
+        for (fi, f) in model.faces.iter().enumerate() {
+            for u in f.loops.iter().flat_map(|l| l.edges.iter()) {
+                if let Some(v) = edge_faces.get_mut(u.edge as usize) {
+                    if !v.contains(&(fi as u32)) {
+                        v.push(fi as u32);
+                    }
+                }
+            }
+            for &e in &f.embedded_edges {
+                if let Some(v) = edge_faces.get_mut(e as usize) {
+                    v.push(fi as u32);
+                }
             }
         }
-        Curvature {
-            model,
+        let mut c = Curvature {
+            model: model.clone(),
             eps,
             d_min,
             d_max,
-            vertex_d,
+            vertex_d: vec![d_max; model.vertices.len()],
+            edge_faces,
+        };
+        for (ei, e) in model.edges.iter().enumerate() {
+            for (v, t) in [(e.start, e.t0), (e.end, e.t1)] {
+                let d = c.edge_spacing(ei, t);
+                let slot = &mut c.vertex_d[v as usize];
+                *slot = slot.min(d);
+            }
         }
+        c
+    }
+
+    /// Spacing on a face at (u,v) from the surface's largest curvature.
+    fn face_spacing(&self, fi: usize, uv: [f64; 2]) -> f64 {
+        let Some(f) = self.model.faces.get(fi) else {
+            return self.d_max;
+        };
+        let s = f.surface.derivs(uv[0], uv[1]);
+        match max_principal_curvature(&s) {
+            Some(k) => triangle_spacing(k, self.eps, self.d_min, self.d_max),
+            // a pole or an apex: the curvature of a point a hair away (the
+            // limit of the surrounding values)
+            None => {
+                let (u, v) = f.surface.domain();
+                let mid = [0.5 * (u[0] + u[1]), 0.5 * (v[0] + v[1])];
+                let p = [
+                    uv[0] + 1e-6 * (mid[0] - uv[0]),
+                    uv[1] + 1e-6 * (mid[1] - uv[1]),
+                ];
+                let s = f.surface.derivs(p[0], p[1]);
+                max_principal_curvature(&s)
+                    .map(|k| triangle_spacing(k, self.eps, self.d_min, self.d_max))
+                    .unwrap_or(self.d_min)
+            }
+        }
+    }
+
+    /// Spacing on an edge at parameter t: the curve's, and that of every
+    /// face the edge bounds (its (u,v) from the pcurve or by inversion).
+    fn edge_spacing(&self, ei: usize, t: f64) -> f64 {
+        let Some(e) = self.model.edges.get(ei) else {
+            return self.d_max;
+        };
+        let mut d = triangle_spacing(
+            curve_curvature(e.curve.as_ref(), t),
+            self.eps,
+            self.d_min,
+            self.d_max,
+        );
+        let p = e.curve.point(t);
+        for &fi in &self.edge_faces[ei] {
+            let uv = match self.model.pcurves.get(&(fi, ei as u32)) {
+                Some(pc) => {
+                    let q = pc.point(t);
+                    Some([q.x, q.y])
+                }
+                None => self.model.faces[fi as usize].surface.inverse(&p, None),
+            };
+            if let Some(uv) = uv {
+                d = d.min(self.face_spacing(fi as usize, uv));
+            }
+        }
+        d
     }
 }
 
@@ -125,38 +197,8 @@ impl Spacing for Curvature {
         let id = q.entity.id as usize;
         match q.entity.dim {
             0 => self.vertex_d.get(id).copied().unwrap_or(self.d_max),
-            1 => match self.model.edges.get(id) {
-                Some(e) => triangle_spacing(
-                    curve_curvature(e.curve.as_ref(), q.params[0]),
-                    self.eps,
-                    self.d_min,
-                    self.d_max,
-                ),
-                None => self.d_max,
-            },
-            2 => match self.model.faces.get(id) {
-                Some(f) => {
-                    let s = f.surface.derivs(q.params[0], q.params[1]);
-                    match max_principal_curvature(&s) {
-                        Some(k) => triangle_spacing(k, self.eps, self.d_min, self.d_max),
-                        // a pole or an apex: the curvature of a point a hair
-                        // away (the limit of the surrounding values)
-                        None => {
-                            let (u, v) = f.surface.domain();
-                            let mid = [0.5 * (u[0] + u[1]), 0.5 * (v[0] + v[1])];
-                            let p = [
-                                q.params[0] + 1e-6 * (mid[0] - q.params[0]),
-                                q.params[1] + 1e-6 * (mid[1] - q.params[1]),
-                            ];
-                            let s = f.surface.derivs(p[0], p[1]);
-                            max_principal_curvature(&s)
-                                .map(|k| triangle_spacing(k, self.eps, self.d_min, self.d_max))
-                                .unwrap_or(self.d_min)
-                        }
-                    }
-                }
-                None => self.d_max,
-            },
+            1 => self.edge_spacing(id, q.params[0]),
+            2 => self.face_spacing(id, q.params),
             _ => self.d_max,
         }
     }
