@@ -23,6 +23,11 @@ pub enum ConnectError {
     Crossing(f64, f64),
     #[error("a coordinate is not finite or too large for the triangulation: {0}")]
     Insertion(String),
+    #[error(
+        "the surface is too coarsely sampled to connect its bubbles ({0}); \
+         a smaller size (at most about a fifth of the smallest radius of curvature) works"
+    )]
+    Coarse(String),
 }
 
 /// Constrained Delaunay triangulation of `uv` with the constraint segments
@@ -326,7 +331,7 @@ fn fill_caps(
         return if orphans.is_empty() {
             Ok(())
         } else {
-            Err(ConnectError::Insertion(format!(
+            Err(ConnectError::Coarse(format!(
                 "{} points lost their triangles but no hole was found",
                 orphans.len()
             )))
@@ -410,7 +415,12 @@ fn fill_caps(
             .filter(|s| index.contains_key(&s[0]) && index.contains_key(&s[1]))
             .map(|s| [index[&s[0]], index[&s[1]]])
             .collect();
-        let cap = triangulate(&puv, &segs, &segs, |_| false)?;
+        let cap = triangulate(&puv, &segs, &segs, |_| false).map_err(|e| match e {
+            ConnectError::Crossing(..) | ConnectError::Duplicate(..) => ConnectError::Coarse(
+                format!("a hole around a pole or a tight bend folds in its tangent plane: {e}"),
+            ),
+            other => other,
+        })?;
         for t in cap {
             tris.push([local[t[0]], local[t[1]], local[t[2]]]);
         }
