@@ -268,15 +268,19 @@ pub fn triangulate_surface(
         })
     });
     fill_caps(pts, &mut tris, boundary)?;
-    // --- orientation along the surface normal
-    for t in &mut tris {
+    orient_along_normal(pts, &mut tris);
+    Ok(tris)
+}
+
+/// Turns every triangle to be counter-clockwise about the surface normal.
+fn orient_along_normal(pts: &SurfacePoints<'_>, tris: &mut [[usize; 3]]) {
+    for t in tris.iter_mut() {
         let (a, b, c) = (pts.pos[t[0]], pts.pos[t[1]], pts.pos[t[2]]);
         let nrm = pts.normal[t[0]] + pts.normal[t[1]] + pts.normal[t[2]];
         if (b - a).cross(&(c - a)).dot(&nrm) < 0.0 {
             t.swap(1, 2);
         }
     }
-    Ok(tris)
 }
 
 /// An edge of a (u,v) triangle longer than this many spacings marks a
@@ -295,13 +299,7 @@ fn fill_caps(
     use std::collections::{HashMap, HashSet};
     let n = pts.uv.len();
     // orient the (u,v) triangles along the normal so hole sides are known
-    for t in tris.iter_mut() {
-        let (a, b, c) = (pts.pos[t[0]], pts.pos[t[1]], pts.pos[t[2]]);
-        let nrm = pts.normal[t[0]] + pts.normal[t[1]] + pts.normal[t[2]];
-        if (b - a).cross(&(c - a)).dot(&nrm) < 0.0 {
-            t.swap(1, 2);
-        }
-    }
+    orient_along_normal(pts, tris);
     let bset: HashSet<(usize, usize)> = boundary
         .iter()
         .map(|s| (s[0].min(s[1]), s[0].max(s[1])))

@@ -71,6 +71,25 @@ impl OnFace<'_> {
     }
 }
 
+impl OnFace<'_> {
+    /// Derivatives for the tangent plane at `params`; at a singular point
+    /// those of a point a hair toward the middle of the domain (the tangent
+    /// plane is the limit there).
+    fn tangent_derivs(&self, params: [f64; 2]) -> crate::geom::SurfaceDerivs {
+        let dv = self.surface.derivs(params[0], params[1]);
+        if !self.degenerate(params, &dv.su, &dv.sv) {
+            return dv;
+        }
+        let (lo, hi) = self.region.bbox();
+        let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        let q = [
+            params[0] + 1e-6 * (mid[0] - params[0]),
+            params[1] + 1e-6 * (mid[1] - params[1]),
+        ];
+        self.surface.derivs(q[0], q[1])
+    }
+}
+
 impl Carrier for OnFace<'_> {
     fn entity(&self) -> EntityRef {
         self.entity
@@ -92,18 +111,7 @@ impl Carrier for OnFace<'_> {
         Some((self.surface.point(uv[0], uv[1]), uv))
     }
     fn frame(&self, params: [f64; 2]) -> (V3, V3) {
-        let mut dv = self.surface.derivs(params[0], params[1]);
-        if self.degenerate(params, &dv.su, &dv.sv) {
-            // at a singular point take the frame a hair toward the middle of
-            // the domain (the tangent plane is the limit there)
-            let (lo, hi) = self.region.bbox();
-            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-            let q = [
-                params[0] + 1e-6 * (mid[0] - params[0]),
-                params[1] + 1e-6 * (mid[1] - params[1]),
-            ];
-            dv = self.surface.derivs(q[0], q[1]);
-        }
+        let dv = self.tangent_derivs(params);
         let (a, b) = if dv.su.norm_squared() >= dv.sv.norm_squared() {
             (dv.su, dv.sv)
         } else {
@@ -126,16 +134,7 @@ impl Carrier for OnFace<'_> {
         self.surface.point(params[0], params[1])
     }
     fn normal(&self, params: [f64; 2]) -> V3 {
-        let mut dv = self.surface.derivs(params[0], params[1]);
-        if self.degenerate(params, &dv.su, &dv.sv) {
-            let (lo, hi) = self.region.bbox();
-            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-            let q = [
-                params[0] + 1e-6 * (mid[0] - params[0]),
-                params[1] + 1e-6 * (mid[1] - params[1]),
-            ];
-            dv = self.surface.derivs(q[0], q[1]);
-        }
+        let dv = self.tangent_derivs(params);
         dv.su.cross(&dv.sv).normalize()
     }
     fn planar(&self) -> bool {
