@@ -2,8 +2,15 @@
 //!
 //! ```text
 //! bubblemesh mesh INPUT -o OUTPUT [--size EXPR] [--dim N] [--fast] [--report FILE.json]
+//!                 [picture options] [--plots DIR] [--frames DIR] [--animate FILE.html]
 //! bubblemesh quality MESH [--size EXPR] [--json FILE.json]
+//! bubblemesh draw MESH -o PICTURE [--size EXPR] [picture options] [--plots DIR]
 //! ```
+//!
+//! OUTPUT's extension chooses the writer: `.svg`, `.png` and `.html` go to
+//! `bubblemesh-viz` (pictures and the browser viewer), every other one to
+//! `bubblemesh_io::write`. Picture options: `--color quality|entity`,
+//! `--view X,Y,Z`, `--bubbles`, `--width PX`.
 //!
 //! This command line is a contract: later work and outside checks drive
 //! `bubblemesh mesh INPUT -o OUTPUT --size EXPR --dim N` exactly so.
@@ -16,10 +23,12 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use bubblemesh_core::engine::{Integrator, Progress};
-use bubblemesh_core::quality;
+use bubblemesh_core::quality::{self, QualityReport};
 use bubblemesh_core::spacing::Expr;
-use bubblemesh_core::{mesh_model, Model, Options, Spacing, P3};
-use clap::{Parser, Subcommand, ValueEnum};
+use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, P3, V3};
+use bubblemesh_viz::geometry::{node_spacing, node_spacing_from_edges, Measures};
+use bubblemesh_viz::{ColorBy, Kind, PictureOptions, ViewerOptions};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 
 #[derive(Parser)]
 #[command(
@@ -34,10 +43,47 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Mesh a domain file (.toml) into a mesh file (.msh .vtu .stl .obj .mesh).
+    /// Mesh a domain file (.toml) into a mesh file (.msh .vtu .stl .obj .mesh)
+    /// or a picture (.svg .png .html).
     Mesh(MeshArgs),
     /// Report the quality of any mesh file bubblemesh can read.
     Quality(QualityArgs),
+    /// Draw any mesh file bubblemesh can read as a picture (.svg .png .html).
+    Draw(DrawArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ColorArg {
+    /// Radius ratio q = 2 r_in / r_circ (3 r_in / r_circ for tetrahedra).
+    Quality,
+    /// The model entity (face) an element meshes.
+    Entity,
+}
+
+/// Options of the pictures (-o .svg/.png/.html, --frames, --animate).
+#[derive(Args, Clone)]
+struct PictureArgs {
+    /// Colour the elements by radius ratio or by source entity.
+    #[arg(long, value_enum, default_value = "quality")]
+    color: ColorArg,
+    /// Direction towards the viewer, X,Y,Z, for surfaces (default: along the
+    /// normal of a flat mesh, else 1,-1,1).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_view_arg)]
+    view: Option<V3>,
+    /// Draw the bubbles: circles of diameter the spacing at each node.
+    #[arg(long)]
+    bubbles: bool,
+    /// Picture width in pixels (.svg, .png).
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(64..=20000))]
+    width: u32,
+    /// Write SVG plots into this directory: energy history of stage 2 and
+    /// histograms of radius ratio, angles and L/d (with an index.html).
+    #[arg(long)]
+    plots: Option<PathBuf>,
+}
+
+fn parse_view_arg(s: &str) -> Result<V3, String> {
+    bubblemesh_viz::view::parse_view(s)
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -50,7 +96,8 @@ enum IntegratorArg {
 struct MeshArgs {
     /// The input: a bubblemesh domain file (.toml, see docs/domain-format.md).
     input: PathBuf,
-    /// The output mesh; the format follows the extension (.msh .vtu .stl .obj .mesh).
+    /// The output; the format follows the extension: a mesh (.msh .vtu .stl
+    /// .obj .mesh) or a picture (.svg .png, or .html: the browser viewer).
     #[arg(short, long)]
     output: PathBuf,
     /// Node spacing d(x, y, z): a number or an expression such as
@@ -76,6 +123,32 @@ struct MeshArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+    #[command(flatten)]
+    picture: PictureArgs,
+    /// Write pictures of the bubbles settling into this directory
+    /// (frame_000.svg/.png, ...): stage 1, then stage 2 re-run with growing
+    /// step limits (costly: for small examples).
+    #[arg(long)]
+    frames: Option<PathBuf>,
+    /// Write a self-contained page animating the bubbles settling (the
+    /// frames of --frames).
+    #[arg(long)]
+    animate: Option<PathBuf>,
+}
+
+#[derive(Parser)]
+struct DrawArgs {
+    /// The mesh file (.msh .vtu .stl .obj .mesh).
+    mesh: PathBuf,
+    /// The picture: .svg, .png or .html.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Spacing expression: the bubble diameters for --bubbles (default: the
+    /// mean length of the edges at each node) and L/d in the report.
+    #[arg(long, allow_hyphen_values = true)]
+    size: Option<String>,
+    #[command(flatten)]
+    picture: PictureArgs,
 }
 
 #[derive(Parser)]
@@ -95,6 +168,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Mesh(a) => run_mesh(a),
         Command::Quality(a) => run_quality(a),
+        Command::Draw(a) => run_draw(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -144,6 +218,15 @@ fn parse_spacing(text: &str, model: &Model) -> Result<Expr, String> {
 
 fn run_mesh(a: MeshArgs) -> Result<(), String> {
     let t0 = Instant::now();
+    let kind = output_kind(&a.output)?;
+    if let Some(p) = &a.animate {
+        if Kind::from_path(p) != Some(Kind::Html) {
+            return Err(format!(
+                "{}: --animate writes a page: use .html",
+                p.display()
+            ));
+        }
+    }
     let model = read_model(&a.input)?;
     if let Some(d) = a.dim {
         if d == 0 || d > 3 {
@@ -193,10 +276,22 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         b.finish_and_clear();
     }
     let t_mesh = t0.elapsed().as_secs_f64();
-    let t_write = Instant::now();
-    bubblemesh_io::write(&mesh, &a.output).map_err(|e| e.to_string())?;
-    let write_s = t_write.elapsed().as_secs_f64();
     let q = quality::analyse(&mesh, Some(&spacing as &dyn Spacing));
+    let t_write = Instant::now();
+    let title = a.input.display().to_string();
+    write_output(
+        &mesh,
+        &a.output,
+        kind,
+        &a.picture,
+        &Drawing {
+            title: &title,
+            spacing: Some(&spacing),
+            quality: &q,
+            notes: vec![format!("spacing d = {size_text}")],
+        },
+    )?;
+    let write_s = t_write.elapsed().as_secs_f64();
     if !a.quiet {
         eprintln!(
             "meshed {} in {:.3} s (stage 1 {:.3} s, stage 2 {:.3} s, connection {:.3} s); wrote {} in {:.3} s",
@@ -225,7 +320,338 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
         write_atomically(path, text.as_bytes())?;
     }
+    if let Some(dir) = &a.picture.plots {
+        write_plots(dir, &mesh, Some(&report), Some(&spacing), &q, &title)?;
+        if !a.quiet {
+            eprintln!("wrote plots into {}", dir.display());
+        }
+    }
+    if a.frames.is_some() || a.animate.is_some() {
+        let frames = settle_frames(&model, &spacing, &opts, &mesh, &report, a.quiet)?;
+        let pictures = frame_pictures(&model, &spacing, &a.picture, &frames)?;
+        if let Some(dir) = &a.frames {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))?;
+            for (k, (f, svg)) in frames.iter().zip(&pictures).enumerate() {
+                write_atomically(&dir.join(format!("frame_{k:03}.svg")), svg.svg.as_bytes())?;
+                let png =
+                    bubblemesh_viz::png(&f.mesh, &frame_options(&model, &spacing, &a.picture, f))
+                        .map_err(|e| e.to_string())?;
+                write_atomically(&dir.join(format!("frame_{k:03}.png")), &png)?;
+            }
+            if !a.quiet {
+                eprintln!("wrote {} frames into {}", frames.len(), dir.display());
+            }
+        }
+        if let Some(path) = &a.animate {
+            let page = bubblemesh_viz::anim::page(
+                &format!("{title}: the bubbles settling"),
+                &[
+                    format!("spacing d = {size_text}"),
+                    "Frame 1 is stage 1 (hierarchical placement); frame k > 1 is a run whose stage 2 \
+                     stopped after the step limit shown (population control on the same schedule as \
+                     the full run), connected and improved as usual; the last frame is the mesh written."
+                        .to_string(),
+                ],
+                &pictures,
+            );
+            write_atomically(path, page.as_bytes())?;
+            if !a.quiet {
+                eprintln!("wrote the animation {}", path.display());
+            }
+        }
+    }
     Ok(())
+}
+
+fn run_draw(a: DrawArgs) -> Result<(), String> {
+    let kind = match Kind::from_path(&a.output) {
+        Some(k) => k,
+        None => {
+            return Err(format!(
+                "{}: draw writes pictures: use .svg, .png or .html",
+                a.output.display()
+            ))
+        }
+    };
+    let mesh = bubblemesh_io::read(&a.mesh).map_err(|e| e.to_string())?;
+    let spacing = match &a.size {
+        Some(s) => Some(Expr::parse(s).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let q = quality::analyse(&mesh, spacing.as_ref().map(|s| s as &dyn Spacing));
+    let title = a.mesh.display().to_string();
+    let mut notes = Vec::new();
+    if let Some(s) = &a.size {
+        notes.push(format!("spacing d = {s}"));
+    }
+    write_output(
+        &mesh,
+        &a.output,
+        Some(kind),
+        &a.picture,
+        &Drawing {
+            title: &title,
+            spacing: spacing.as_ref(),
+            quality: &q,
+            notes,
+        },
+    )?;
+    if let Some(dir) = &a.picture.plots {
+        write_plots(dir, &mesh, None, spacing.as_ref(), &q, &title)?;
+    }
+    Ok(())
+}
+
+/// Whether OUTPUT is a picture (`Some`) or a mesh file (`None`); an
+/// extension that is neither is an error before any work is done.
+fn output_kind(path: &Path) -> Result<Option<Kind>, String> {
+    if let Some(k) = Kind::from_path(path) {
+        return Ok(Some(k));
+    }
+    bubblemesh_io::Format::from_path(path)
+        .map(|_| None)
+        .map_err(|e| format!("{e}, or a picture: .svg, .png, .html"))
+}
+
+/// What a picture shows besides the mesh.
+struct Drawing<'a> {
+    title: &'a str,
+    spacing: Option<&'a Expr>,
+    quality: &'a QualityReport,
+    notes: Vec<String>,
+}
+
+fn picture_options(
+    mesh: &Mesh,
+    pic: &PictureArgs,
+    spacing: Option<&Expr>,
+    title: &str,
+) -> PictureOptions {
+    PictureOptions {
+        color: color_by(pic.color),
+        view: pic.view,
+        bubbles: pic.bubbles.then(|| match spacing {
+            Some(s) => node_spacing(mesh, s),
+            None => node_spacing_from_edges(mesh),
+        }),
+        width: pic.width,
+        title: Some(title.to_string()),
+        ..Default::default()
+    }
+}
+
+fn color_by(c: ColorArg) -> ColorBy {
+    match c {
+        ColorArg::Quality => ColorBy::Quality,
+        ColorArg::Entity => ColorBy::Entity,
+    }
+}
+
+/// Writes the mesh to `path`: a mesh file through `bubblemesh_io`, or a
+/// picture or viewer page through `bubblemesh_viz`; whole or not at all.
+fn write_output(
+    mesh: &Mesh,
+    path: &Path,
+    kind: Option<Kind>,
+    pic: &PictureArgs,
+    d: &Drawing,
+) -> Result<(), String> {
+    let Some(kind) = kind else {
+        return bubblemesh_io::write(mesh, path).map_err(|e| e.to_string());
+    };
+    let fail = |e: bubblemesh_viz::VizError| format!("{}: {e}", path.display());
+    let bytes = match kind {
+        Kind::Svg => bubblemesh_viz::svg(mesh, &picture_options(mesh, pic, d.spacing, d.title))
+            .map_err(fail)?
+            .into_bytes(),
+        Kind::Png => bubblemesh_viz::png(mesh, &picture_options(mesh, pic, d.spacing, d.title))
+            .map_err(fail)?,
+        Kind::Html => {
+            let m = Measures::of(mesh, d.spacing.map(|s| s as &dyn Spacing));
+            let figures = bubblemesh_viz::plots::quality_histograms(&m)
+                .into_iter()
+                .map(|(stem, svg)| (stem.replace('_', " "), svg))
+                .collect();
+            bubblemesh_viz::viewer(
+                mesh,
+                &ViewerOptions {
+                    title: d.title.to_string(),
+                    color: color_by(pic.color),
+                    view: pic.view,
+                    quality: Some(d.quality),
+                    figures,
+                    notes: d.notes.clone(),
+                },
+            )
+            .map_err(fail)?
+            .into_bytes()
+        }
+    };
+    bubblemesh_viz::write_atomic(path, &bytes)
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
+}
+
+/// Writes the energy history (with a report) and the histograms as SVG
+/// into `dir`, with an index.html showing them and the quality table.
+fn write_plots(
+    dir: &Path,
+    mesh: &Mesh,
+    report: Option<&Report>,
+    spacing: Option<&Expr>,
+    q: &QualityReport,
+    title: &str,
+) -> Result<(), String> {
+    use bubblemesh_viz::plots;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))?;
+    let mut files: Vec<(String, String)> = Vec::new();
+    if let Some(r) = report {
+        let faces: Vec<plots::FaceEnergy> = r
+            .faces
+            .iter()
+            .map(|f| plots::FaceEnergy {
+                name: f.name.clone().unwrap_or_else(|| format!("face {}", f.face)),
+                samples: f.relax.as_ref().map_or(&[][..], |x| &x.energy[..]),
+            })
+            .collect();
+        files.push(("energy".into(), plots::energy(&faces)));
+    }
+    let m = Measures::of(mesh, spacing.map(|s| s as &dyn Spacing));
+    for (stem, svg) in plots::quality_histograms(&m) {
+        files.push((stem.to_string(), svg));
+    }
+    let mut index = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t} · plots</title>\n\
+         <style>body{{font:14px system-ui,sans-serif;margin:12px}}table{{border-collapse:collapse;font-size:12px}}\
+         td,th{{padding:1px 8px;border-bottom:1px solid #ddd;text-align:left}}td.n{{text-align:right}}</style></head><body>\n\
+         <h1>{t}</h1>\n",
+        t = bubblemesh_viz::picture::xml_escape(title)
+    );
+    for (stem, svg) in &files {
+        write_atomically(&dir.join(format!("{stem}.svg")), svg.as_bytes())?;
+        index.push_str(&format!("<p><img src=\"{stem}.svg\" alt=\"{stem}\"></p>\n"));
+    }
+    index.push_str("<h2>Quality</h2>\n");
+    index.push_str(&bubblemesh_viz::html::quality_table(q));
+    index.push_str("</body></html>\n");
+    write_atomically(&dir.join("index.html"), index.as_bytes())
+}
+
+/// One picture of the settling simulation.
+struct SettleFrame {
+    label: String,
+    mesh: Mesh,
+}
+
+/// The meshes of the settling simulation: stage 1 alone, then runs whose
+/// stage 2 stops after 1, 2, 4, 8, ... steps, then the full run's mesh.
+///
+/// The engine reports no bubble positions during stage 2, so each frame is
+/// its own run with a smaller step limit. Population control in run k keeps
+/// the full run's schedule (it stops at the same step), so the first k steps
+/// of run k are the full run's first k steps; each run is then connected and
+/// improved as usual. The sequence stops early once a run converges before
+/// its limit (it equals the full run).
+fn settle_frames(
+    model: &Model,
+    spacing: &Expr,
+    opts: &Options,
+    full: &Mesh,
+    full_report: &Report,
+    quiet: bool,
+) -> Result<Vec<SettleFrame>, String> {
+    let count = |r: &Report| r.nodes;
+    let mut out = Vec::new();
+    let mut o = opts.clone();
+    o.progress = None;
+    o.fast = true;
+    let (m, r) = mesh_model(model, spacing, &o).map_err(|e| e.to_string())?;
+    out.push(SettleFrame {
+        label: format!("stage 1 (hierarchical placement): {} bubbles", count(&r)),
+        mesh: m,
+    });
+    if !opts.fast {
+        let n = opts.relax.max_steps;
+        let full_until = (n as f64 * opts.relax.population_until) as usize;
+        let mut k = 1;
+        while k < n {
+            let mut o = opts.clone();
+            o.progress = None;
+            o.relax.max_steps = k;
+            o.relax.population_until = (full_until as f64 + 0.5) / k as f64;
+            if !quiet {
+                eprintln!("frame {}: stage 2 limited to {k} steps", out.len());
+            }
+            let (m, r) = mesh_model(model, spacing, &o).map_err(|e| e.to_string())?;
+            let converged = r
+                .faces
+                .iter()
+                .all(|f| !f.relax.as_ref().is_some_and(|x| x.steps >= k));
+            if converged {
+                break;
+            }
+            out.push(SettleFrame {
+                label: format!("stage 2 after {k} steps: {} bubbles", count(&r)),
+                mesh: m,
+            });
+            k *= 2;
+        }
+        let steps = full_report
+            .faces
+            .iter()
+            .filter_map(|f| f.relax.as_ref().map(|x| x.steps))
+            .max()
+            .unwrap_or(0);
+        out.push(SettleFrame {
+            label: format!(
+                "final: stage 2 ended after {steps} steps: {} bubbles",
+                count(full_report)
+            ),
+            mesh: full.clone(),
+        });
+    } else {
+        out.truncate(0);
+        out.push(SettleFrame {
+            label: format!("stage 1 only (--fast): {} bubbles", count(full_report)),
+            mesh: full.clone(),
+        });
+    }
+    Ok(out)
+}
+
+/// Picture options of one frame: bubbles always drawn, every frame framed
+/// on the model's box so that the pictures share one scale.
+fn frame_options(
+    model: &Model,
+    spacing: &Expr,
+    pic: &PictureArgs,
+    f: &SettleFrame,
+) -> PictureOptions {
+    let mut o = picture_options(&f.mesh, pic, Some(spacing), &f.label);
+    o.bubbles = Some(node_spacing(&f.mesh, spacing));
+    o.fit = model.bbox();
+    o.caption = Some(f.label.clone());
+    o
+}
+
+fn frame_pictures(
+    model: &Model,
+    spacing: &Expr,
+    pic: &PictureArgs,
+    frames: &[SettleFrame],
+) -> Result<Vec<bubblemesh_viz::anim::Frame>, String> {
+    frames
+        .iter()
+        .map(|f| {
+            let svg = bubblemesh_viz::svg(&f.mesh, &frame_options(model, spacing, pic, f))
+                .map_err(|e| e.to_string())?;
+            Ok(bubblemesh_viz::anim::Frame {
+                label: f.label.clone(),
+                svg,
+            })
+        })
+        .collect()
 }
 
 fn run_quality(a: QualityArgs) -> Result<(), String> {
@@ -245,21 +671,8 @@ fn run_quality(a: QualityArgs) -> Result<(), String> {
 
 /// Writes a file whole or not at all (temporary file, then rename).
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        path.file_name().and_then(|n| n.to_str()).unwrap_or("out"),
-        std::process::id()
-    ));
-    std::fs::write(&tmp, bytes)
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            format!("{}: cannot write: {e}", path.display())
-        })
+    bubblemesh_viz::write_atomic(path, bytes)
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
 /// A progress bar on stderr for interactive runs of non-trivial models.

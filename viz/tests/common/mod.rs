@@ -1,0 +1,4 @@
+//! Helpers shared by the viz tests.
+
+pub mod chromium;
+pub mod meshes;
