@@ -206,7 +206,10 @@ fn cone_is_meshed_through_its_apex() {
     let c = check(&m, d);
     assert_eq!(c.boundary_loops, 1);
     let apex = P3::new(0.0, 0.0, 1.0);
-    assert!(m.nodes.iter().any(|n| (n.pos - apex).norm() < d));
+    assert!(
+        m.nodes.iter().any(|n| (n.pos - apex).norm() < 1e-9),
+        "no node at the apex"
+    );
     // lateral area π r s with s = 1.2, r = s sin 30°
     let exact = std::f64::consts::PI * 0.6 * 1.2;
     assert!((c.area - exact).abs() / exact < 0.01, "area {}", c.area);

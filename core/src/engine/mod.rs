@@ -827,9 +827,17 @@ fn mesh_face(
             .map(|&uv| sys.carrier.normal(uv))
             .collect();
         let poles = surface.singular_points();
+        // bubbles near a pole or an apex are connected in the tangent plane;
+        // fixed ones too (an apex vertex), unless a boundary segment ends
+        // there (segments stay in the (u,v) triangulation)
+        let mut on_segment = vec![false; sys.n()];
+        for s in &segments {
+            on_segment[s[0]] = true;
+            on_segment[s[1]] = true;
+        }
         let singular: Vec<bool> = (0..sys.n())
             .map(|i| {
-                i >= sys.n_fixed
+                !on_segment[i]
                     && poles
                         .iter()
                         .any(|q| (sys.pos[i] - q).norm() < CAP_RADIUS * sys.d[i])

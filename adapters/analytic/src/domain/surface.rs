@@ -305,11 +305,23 @@ pub(crate) fn add_surfaces(specs: &[SurfaceSpec], model: &mut Model) -> Result<(
             }
             face_loops.push(lp);
         }
+        // a cone that reaches its apex has a vertex there: the sharp point
+        // is a node of the mesh (thesis §3.2.3: vertex bubbles are fixed)
+        let mut embedded_vertices = Vec::new();
+        if let Some(c) = &s.cone {
+            if c.from == 0.0 {
+                embedded_vertices.push(model.vertices.len() as u32);
+                model.vertices.push(Vertex {
+                    point: p3(&c.apex, &entity, "the apex")?,
+                    name: Some("apex".into()),
+                });
+            }
+        }
         model.faces.push(Face {
             surface,
             loops: face_loops,
             embedded_edges: vec![],
-            embedded_vertices: vec![],
+            embedded_vertices,
             name: s.name.clone(),
         });
     }
