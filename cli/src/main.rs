@@ -87,6 +87,12 @@ fn parse_view_arg(s: &str) -> Result<V3, String> {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum CombineArg {
+    Min,
+    Product,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum IntegratorArg {
     Euler,
     Rk4,
@@ -120,6 +126,24 @@ struct MeshArgs {
     /// Upper bound on stage-2 time steps per face.
     #[arg(long, default_value_t = 600)]
     max_steps: usize,
+    /// Curvature-based spacing (thesis eq. 4.6.1): triangles within EPS of
+    /// the geometry (model units). Combines with --size and --view-spacing.
+    #[arg(long, value_name = "EPS", allow_hyphen_values = true)]
+    curvature: Option<f64>,
+    /// View-based spacing d = A·|V0 − x| (thesis eq. 4.6.2), as "X,Y,Z,A".
+    #[arg(long, value_name = "X,Y,Z,A", allow_hyphen_values = true)]
+    view_spacing: Option<String>,
+    /// How several spacing sources combine: their minimum (thesis §4.8.1)
+    /// or their product (Fig. 5.10c).
+    #[arg(long, value_enum, default_value = "min")]
+    combine: CombineArg,
+    /// Lower bound on the spacing (default for --curvature: EPS).
+    #[arg(long, allow_hyphen_values = true)]
+    d_min: Option<f64>,
+    /// Upper bound on the spacing (default for --curvature: 1/10 of the
+    /// bounding-box diagonal).
+    #[arg(long, allow_hyphen_values = true)]
+    d_max: Option<f64>,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
@@ -216,6 +240,91 @@ fn parse_spacing(text: &str, model: &Model) -> Result<Expr, String> {
     Ok(e)
 }
 
+/// The spacing the command line asks for: the --size expression, the
+/// curvature and view sources, combined by minimum or product and clamped
+/// to --d-min/--d-max. Returns it with a one-line description.
+fn build_spacing(
+    a: &MeshArgs,
+    size_text: &str,
+    model: &Arc<Model>,
+) -> Result<(Box<dyn Spacing>, String), String> {
+    use bubblemesh_core::curvature::{Curvature, View};
+    use bubblemesh_core::spacing::{Clamped, MinOf, ProductOf};
+    let positive = |v: f64, what: &str| -> Result<f64, String> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(format!("{what} must be a positive number (got {v})"))
+        }
+    };
+    let d_min = a.d_min.map(|v| positive(v, "--d-min")).transpose()?;
+    let d_max = a.d_max.map(|v| positive(v, "--d-max")).transpose()?;
+    if let (Some(lo), Some(hi)) = (d_min, d_max) {
+        if lo > hi {
+            return Err(format!("--d-min {lo} is larger than --d-max {hi}"));
+        }
+    }
+    let mut sources: Vec<Box<dyn Spacing>> = Vec::new();
+    let mut words: Vec<String> = Vec::new();
+    if !size_text.is_empty() {
+        sources.push(Box::new(parse_spacing(size_text, model)?));
+        words.push(format!("d = {size_text}"));
+    }
+    if let Some(eps) = a.curvature {
+        let eps = positive(eps, "--curvature")?;
+        let lo = d_min.unwrap_or(eps);
+        let hi = d_max.unwrap_or(model.size() / 10.0).max(lo);
+        sources.push(Box::new(Curvature::new(model.clone(), eps, lo, hi)));
+        words.push(format!("curvature eps = {eps} (d in [{lo}, {hi}])"));
+    }
+    if let Some(v) = &a.view_spacing {
+        let parts: Vec<f64> = v
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("--view-spacing '{v}': expected four numbers X,Y,Z,A"))?;
+        if parts.len() != 4 || parts.iter().any(|x| !x.is_finite()) {
+            return Err(format!(
+                "--view-spacing '{v}': expected four numbers X,Y,Z,A"
+            ));
+        }
+        let factor = positive(parts[3], "the --view-spacing factor A")?;
+        let lo = d_min.unwrap_or(f64::MIN_POSITIVE);
+        let hi = d_max.unwrap_or(f64::INFINITY);
+        sources.push(Box::new(View {
+            viewpoint: P3::new(parts[0], parts[1], parts[2]),
+            factor,
+            d_min: lo,
+            d_max: hi,
+        }));
+        words.push(format!(
+            "view from ({}, {}, {}) x {factor}",
+            parts[0], parts[1], parts[2]
+        ));
+    }
+    let joined = match a.combine {
+        CombineArg::Min => words.join(", min with "),
+        CombineArg::Product => words.join(" times "),
+    };
+    let combined: Box<dyn Spacing> = if sources.len() == 1 {
+        sources.pop().expect("one source")
+    } else {
+        match a.combine {
+            CombineArg::Min => Box::new(MinOf(sources)),
+            CombineArg::Product => Box::new(ProductOf(sources)),
+        }
+    };
+    let bounded: Box<dyn Spacing> = match (d_min, d_max) {
+        (None, None) => combined,
+        (lo, hi) => Box::new(Clamped {
+            inner: combined,
+            min: lo.unwrap_or(0.0),
+            max: hi.unwrap_or(f64::INFINITY),
+        }),
+    };
+    Ok((bounded, format!("spacing {joined}")))
+}
+
 fn run_mesh(a: MeshArgs) -> Result<(), String> {
     let t0 = Instant::now();
     let kind = output_kind(&a.output)?;
@@ -233,8 +342,11 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             return Err(format!("--dim {d}: the dimension must be 1, 2 or 3"));
         }
     }
+    let model = Arc::new(model);
+    let others_given = a.curvature.is_some() || a.view_spacing.is_some();
     let size_text = match &a.size {
         Some(s) => s.clone(),
+        None if others_given => String::new(),
         None => {
             let diag = model.size();
             if !(diag > 0.0) {
@@ -250,7 +362,8 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             format!("{d}")
         }
     };
-    let spacing = parse_spacing(&size_text, &model)?;
+    let (spacing, spacing_note) = build_spacing(&a, &size_text, &model)?;
+    let spacing: &dyn Spacing = spacing.as_ref();
     let mut opts = Options {
         dim: a.dim,
         fast: a.fast,
@@ -271,12 +384,12 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         }));
     }
     let what = a.input.display().to_string();
-    let (mesh, report) = mesh_model(&model, &spacing, &opts).map_err(|e| format!("{what}: {e}"))?;
+    let (mesh, report) = mesh_model(&model, spacing, &opts).map_err(|e| format!("{what}: {e}"))?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     let t_mesh = t0.elapsed().as_secs_f64();
-    let q = quality::analyse(&mesh, Some(&spacing as &dyn Spacing));
+    let q = quality::analyse(&mesh, Some(spacing));
     let t_write = Instant::now();
     let title = a.input.display().to_string();
     write_output(
@@ -286,9 +399,9 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         &a.picture,
         &Drawing {
             title: &title,
-            spacing: Some(&spacing),
+            spacing: Some(spacing),
             quality: &q,
-            notes: vec![format!("spacing d = {size_text}")],
+            notes: vec![spacing_note.clone()],
         },
     )?;
     let write_s = t_write.elapsed().as_secs_f64();
@@ -321,21 +434,21 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         write_atomically(path, text.as_bytes())?;
     }
     if let Some(dir) = &a.picture.plots {
-        write_plots(dir, &mesh, Some(&report), Some(&spacing), &q, &title)?;
+        write_plots(dir, &mesh, Some(&report), Some(spacing), &q, &title)?;
         if !a.quiet {
             eprintln!("wrote plots into {}", dir.display());
         }
     }
     if a.frames.is_some() || a.animate.is_some() {
-        let frames = settle_frames(&model, &spacing, &opts, &mesh, &report, a.quiet)?;
-        let pictures = frame_pictures(&model, &spacing, &a.picture, &frames)?;
+        let frames = settle_frames(&model, spacing, &opts, &mesh, &report, a.quiet)?;
+        let pictures = frame_pictures(&model, spacing, &a.picture, &frames)?;
         if let Some(dir) = &a.frames {
             std::fs::create_dir_all(dir)
                 .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))?;
             for (k, (f, svg)) in frames.iter().zip(&pictures).enumerate() {
                 write_atomically(&dir.join(format!("frame_{k:03}.svg")), svg.svg.as_bytes())?;
                 let png =
-                    bubblemesh_viz::png(&f.mesh, &frame_options(&model, &spacing, &a.picture, f))
+                    bubblemesh_viz::png(&f.mesh, &frame_options(&model, spacing, &a.picture, f))
                         .map_err(|e| e.to_string())?;
                 write_atomically(&dir.join(format!("frame_{k:03}.png")), &png)?;
             }
@@ -347,7 +460,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             let page = bubblemesh_viz::anim::page(
                 &format!("{title}: the bubbles settling"),
                 &[
-                    format!("spacing d = {size_text}"),
+                    spacing_note.clone(),
                     "Frame 1 is stage 1 (hierarchical placement); frame k > 1 is a run whose stage 2 \
                      stopped after the step limit shown (population control on the same schedule as \
                      the full run), connected and improved as usual; the last frame is the mesh written."
@@ -392,13 +505,20 @@ fn run_draw(a: DrawArgs) -> Result<(), String> {
         &a.picture,
         &Drawing {
             title: &title,
-            spacing: spacing.as_ref(),
+            spacing: spacing.as_ref().map(|s| s as &dyn Spacing),
             quality: &q,
             notes,
         },
     )?;
     if let Some(dir) = &a.picture.plots {
-        write_plots(dir, &mesh, None, spacing.as_ref(), &q, &title)?;
+        write_plots(
+            dir,
+            &mesh,
+            None,
+            spacing.as_ref().map(|s| s as &dyn Spacing),
+            &q,
+            &title,
+        )?;
     }
     Ok(())
 }
@@ -417,7 +537,7 @@ fn output_kind(path: &Path) -> Result<Option<Kind>, String> {
 /// What a picture shows besides the mesh.
 struct Drawing<'a> {
     title: &'a str,
-    spacing: Option<&'a Expr>,
+    spacing: Option<&'a dyn Spacing>,
     quality: &'a QualityReport,
     notes: Vec<String>,
 }
@@ -425,7 +545,7 @@ struct Drawing<'a> {
 fn picture_options(
     mesh: &Mesh,
     pic: &PictureArgs,
-    spacing: Option<&Expr>,
+    spacing: Option<&dyn Spacing>,
     title: &str,
 ) -> PictureOptions {
     PictureOptions {
@@ -498,7 +618,7 @@ fn write_plots(
     dir: &Path,
     mesh: &Mesh,
     report: Option<&Report>,
-    spacing: Option<&Expr>,
+    spacing: Option<&dyn Spacing>,
     q: &QualityReport,
     title: &str,
 ) -> Result<(), String> {
@@ -555,7 +675,7 @@ struct SettleFrame {
 /// its limit (it equals the full run).
 fn settle_frames(
     model: &Model,
-    spacing: &Expr,
+    spacing: &dyn Spacing,
     opts: &Options,
     full: &Mesh,
     full_report: &Report,
@@ -624,7 +744,7 @@ fn settle_frames(
 /// on the model's box so that the pictures share one scale.
 fn frame_options(
     model: &Model,
-    spacing: &Expr,
+    spacing: &dyn Spacing,
     pic: &PictureArgs,
     f: &SettleFrame,
 ) -> PictureOptions {
@@ -637,7 +757,7 @@ fn frame_options(
 
 fn frame_pictures(
     model: &Model,
-    spacing: &Expr,
+    spacing: &dyn Spacing,
     pic: &PictureArgs,
     frames: &[SettleFrame],
 ) -> Result<Vec<bubblemesh_viz::anim::Frame>, String> {

@@ -281,3 +281,64 @@ fn bad_input_gives_a_clear_error_and_no_output() {
         assert!(!out.exists(), "{args:?} left an output file");
     }
 }
+
+/// Curvature- and view-based spacing from the command line, combined with
+/// an expression by minimum and bounded by --d-max.
+#[test]
+fn curvature_and_view_spacing_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let coarse = dir.path().join("c.msh");
+    let fine = dir.path().join("f.msh");
+    let patch = example("nurbs_patch.toml");
+    for (out, eps) in [(&coarse, "0.004"), (&fine, "0.001")] {
+        let o = run(&[
+            "mesh",
+            patch.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--curvature",
+            eps,
+            "--d-max",
+            "0.2",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let (c, f) = (
+        bubblemesh_io::read(&coarse).unwrap(),
+        bubblemesh_io::read(&fine).unwrap(),
+    );
+    // a quarter of the tolerance: about twice the triangles per unit length
+    assert!(
+        f.triangles.len() > 2 * c.triangles.len(),
+        "{} vs {}",
+        f.triangles.len(),
+        c.triangles.len()
+    );
+    // view spacing: smaller elements near the viewpoint at a corner
+    let v = dir.path().join("v.msh");
+    let o = run(&[
+        "mesh",
+        example("square.toml").to_str().unwrap(),
+        "-o",
+        v.to_str().unwrap(),
+        "--view-spacing",
+        "0,0,0.2,0.1",
+        "--size",
+        "0.08",
+        "--combine",
+        "min",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = bubblemesh_io::read(&v).unwrap();
+    let near = m
+        .nodes
+        .iter()
+        .filter(|n| n.pos.x < 0.25 && n.pos.y < 0.25)
+        .count();
+    let far = m
+        .nodes
+        .iter()
+        .filter(|n| n.pos.x > 0.75 && n.pos.y > 0.75)
+        .count();
+    assert!(near > 3 * far, "near {near} far {far}");
+}

@@ -137,7 +137,8 @@ impl Model {
         }
     }
 
-    /// Axis-aligned bounding box of the vertices and sampled edges.
+    /// Axis-aligned bounding box of the vertices, sampled edges and sampled
+    /// faces (where their parameter domain is finite).
     pub fn bbox(&self) -> Option<(P3, P3)> {
         let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
         let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
@@ -156,6 +157,24 @@ impl Model {
             for k in 0..=32 {
                 let t = e.t0 + (e.t1 - e.t0) * k as f64 / 32.0;
                 add(e.curve.point(t));
+            }
+        }
+        // closed faces have no edges: sample their surfaces (finite domains)
+        for f in &self.faces {
+            let (u, v) = f.surface.domain();
+            if !(u[0].is_finite() && u[1].is_finite() && v[0].is_finite() && v[1].is_finite()) {
+                continue;
+            }
+            for i in 0..=8 {
+                for j in 0..=8 {
+                    let p = f.surface.point(
+                        u[0] + (u[1] - u[0]) * i as f64 / 8.0,
+                        v[0] + (v[1] - v[0]) * j as f64 / 8.0,
+                    );
+                    if p.iter().all(|x| x.is_finite()) {
+                        add(p);
+                    }
+                }
             }
         }
         any.then_some((lo, hi))

@@ -42,6 +42,19 @@ pub trait Spacing: Send + Sync {
     }
 }
 
+/// A boxed spacing is a spacing (so combinators nest).
+impl<S: Spacing + ?Sized> Spacing for Box<S> {
+    fn spacing(&self, q: &SpacingQuery) -> f64 {
+        (**self).spacing(q)
+    }
+    fn spacing_batch(&self, qs: &[SpacingQuery], out: &mut [f64]) {
+        (**self).spacing_batch(qs, out)
+    }
+    fn constant(&self) -> Option<f64> {
+        (**self).constant()
+    }
+}
+
 /// d(x) = c.
 #[derive(Clone, Copy, Debug)]
 pub struct Constant(pub f64);
