@@ -372,25 +372,9 @@ fn relax_edges<C: Carrier>(
 ) -> Result<Vec<usize>, MeshError> {
     let n = sys.n();
     let nf = sys.n_fixed;
-    // vertex -> triangles, compressed rows
-    let mut start = vec![0u32; n + 1];
-    for t in tris {
-        for &v in t {
-            start[v + 1] += 1;
-        }
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; start[n] as usize];
-    for (ti, t) in tris.iter().enumerate() {
-        for &v in t {
-            inc[fill[v] as usize] = ti as u32;
-            fill[v] += 1;
-        }
-    }
-    let incident = |v: usize| &inc[start[v] as usize..start[v + 1] as usize];
+    // vertex -> triangles (the triangles do not change here)
+    let inc = Incidence::new(n, tris);
+    let incident = |v: usize| inc.of(v);
     let neighbours = |v: usize| -> Vec<usize> {
         let mut out: Vec<usize> = incident(v)
             .iter()
