@@ -16,6 +16,7 @@ mod on_surface;
 
 pub use arc::CircleArc;
 pub use line::Line;
+pub(crate) use nurbs::{basis_derivs, clamped_uniform_knots, find_span};
 pub use nurbs::{Nurbs, MAX_NURBS_DEGREE};
 pub use on_surface::CurveOnSurface;
 

@@ -140,20 +140,7 @@ impl Nurbs {
     /// the first or last non-empty span, so the end polynomial pieces are
     /// extrapolated smoothly.
     fn find_span(&self, t: f64) -> usize {
-        let (p, n) = (self.degree, self.points.len());
-        let u = &self.knots;
-        // Number of knots in u_p..=u_n that are ≤ t.
-        let idx = u[p..=n].partition_point(|&x| x <= t);
-        let mut k = (p + idx).saturating_sub(1).clamp(p, n - 1);
-        // Step off empty spans: backwards first (t at or after the span end),
-        // then forwards (t before the first non-empty span).
-        while k > p && u[k] == u[k + 1] {
-            k -= 1;
-        }
-        while k < n - 1 && u[k] == u[k + 1] {
-            k += 1;
-        }
-        k
+        find_span(&self.knots, self.degree, self.points.len(), t)
     }
 
     /// C^(k)(t) for k = 0, 1, 2: the homogeneous sums A^(k) = Σ N^(k) w P
@@ -162,7 +149,7 @@ impl Nurbs {
     fn eval(&self, t: f64) -> [V3; 3] {
         let p = self.degree;
         let span = self.find_span(t);
-        let ders = basis_derivs(&self.knots, span, t, p, 2);
+        let ders = basis_derivs(&self.knots, span, t, p);
         let mut a = [V3::zeros(); 3];
         let mut w = [0.0; 3];
         for j in 0..=p {
@@ -183,19 +170,6 @@ impl Nurbs {
         let c2 = (a[2] - c1 * (2.0 * w[1]) - c0 * w[2]) / w[0];
         [c0, c1, c2]
     }
-}
-
-/// The clamped uniform knot vector on [0, 1] for `n` control points.
-fn clamped_uniform_knots(p: usize, n: usize) -> Vec<f64> {
-    if p == 0 || n < p + 1 {
-        // Let `Nurbs::new` report the real problem (degree or point count).
-        return Vec::new();
-    }
-    let inner = n - p; // number of spans
-    let mut u = vec![0.0; p + 1];
-    u.extend((1..inner).map(|i| i as f64 / inner as f64));
-    u.extend(std::iter::repeat(1.0).take(p + 1));
-    u
 }
 
 fn check_knots(u: &[f64], p: usize, n: usize) -> Result<(), GeometryError> {
@@ -244,77 +218,6 @@ fn check_knots(u: &[f64], p: usize, n: usize) -> Result<(), GeometryError> {
     Ok(())
 }
 
-/// Basis functions N_{span−p+j, p} and their derivatives up to order
-/// `nd` at `t` (The NURBS Book A2.3): `ders[k][j]` = k-th derivative of the
-/// j-th non-zero basis function. Orders above p are zero.
-///
-/// Precondition: u_span < u_{span+1} (a non-empty span), so no division by
-/// zero occurs; `t` may lie outside the span (the span's polynomial is
-/// evaluated).
-#[allow(clippy::needless_range_loop)] // index form of the book's algorithm
-fn basis_derivs(u: &[f64], span: usize, t: f64, p: usize, nd: usize) -> Vec<Vec<f64>> {
-    let mut ndu = vec![vec![0.0; p + 1]; p + 1];
-    let mut left = vec![0.0; p + 1];
-    let mut right = vec![0.0; p + 1];
-    ndu[0][0] = 1.0;
-    for j in 1..=p {
-        left[j] = t - u[span + 1 - j];
-        right[j] = u[span + j] - t;
-        let mut saved = 0.0;
-        for r in 0..j {
-            // Lower triangle: knot differences.
-            ndu[j][r] = right[r + 1] + left[j - r];
-            let temp = ndu[r][j - 1] / ndu[j][r];
-            // Upper triangle: basis functions.
-            ndu[r][j] = saved + right[r + 1] * temp;
-            saved = left[j - r] * temp;
-        }
-        ndu[j][j] = saved;
-    }
-    let mut ders = vec![vec![0.0; p + 1]; nd + 1];
-    for j in 0..=p {
-        ders[0][j] = ndu[j][p];
-    }
-    let du = nd.min(p);
-    let mut a = [vec![0.0; p + 1], vec![0.0; p + 1]];
-    let (pi, dui) = (p as isize, du as isize);
-    for r in 0..=pi {
-        let (mut s1, mut s2) = (0usize, 1usize);
-        a[0][0] = 1.0;
-        for k in 1..=dui {
-            let mut d = 0.0;
-            let rk = r - k;
-            let pk = pi - k;
-            if r >= k {
-                a[s2][0] = a[s1][0] / ndu[(pk + 1) as usize][rk as usize];
-                d = a[s2][0] * ndu[rk as usize][pk as usize];
-            }
-            let j1 = if rk >= -1 { 1 } else { -rk };
-            let j2 = if r - 1 <= pk { k - 1 } else { pi - r };
-            for j in j1..=j2 {
-                let (ju, rkj) = (j as usize, (rk + j) as usize);
-                a[s2][ju] = (a[s1][ju] - a[s1][ju - 1]) / ndu[(pk + 1) as usize][rkj];
-                d += a[s2][ju] * ndu[rkj][pk as usize];
-            }
-            if r <= pk {
-                a[s2][k as usize] = -a[s1][(k - 1) as usize] / ndu[(pk + 1) as usize][r as usize];
-                d += a[s2][k as usize] * ndu[r as usize][pk as usize];
-            }
-            ders[k as usize][r as usize] = d;
-            std::mem::swap(&mut s1, &mut s2);
-        }
-    }
-    // Multiply by p!/(p−k)!.
-    let mut f = pi as f64;
-    for k in 1..=du {
-        for j in 0..=p {
-            ders[k][j] *= f;
-        }
-        f *= (p - k) as f64;
-    }
-    ders
-}
-
 impl Curve for Nurbs {
     fn interval(&self) -> (f64, f64) {
         (self.knots[self.degree], self.knots[self.points.len()])
@@ -330,6 +233,100 @@ impl Curve for Nurbs {
     }
 }
 
+/// Size of the fixed basis arrays: degree ≤ [`MAX_NURBS_DEGREE`].
+pub(crate) const MAXP: usize = MAX_NURBS_DEGREE + 1;
+
+/// The clamped uniform knot vector on [0, 1] for `n` control points
+/// (empty when the degree or count is invalid; [`Nurbs::new`] reports it).
+pub(crate) fn clamped_uniform_knots(p: usize, n: usize) -> Vec<f64> {
+    if p == 0 || n < p + 1 {
+        return Vec::new();
+    }
+    let spans = n - p;
+    let mut k = vec![0.0; p + 1];
+    k.extend((1..spans).map(|i| i as f64 / spans as f64));
+    k.extend(std::iter::repeat(1.0).take(p + 1));
+    k
+}
+
+/// The knot span k ∈ [p, n−1] with u_k ≤ t < u_{k+1}, u_k < u_{k+1} (A2.1);
+/// outside the domain (and NaN) the first or last non-empty span, as for
+/// the curves.
+pub(crate) fn find_span(knots: &[f64], p: usize, n: usize, t: f64) -> usize {
+    let idx = knots[p..=n].partition_point(|&x| x <= t);
+    let mut k = (p + idx).saturating_sub(1).clamp(p, n - 1);
+    while k > p && knots[k] == knots[k + 1] {
+        k -= 1;
+    }
+    while k < n - 1 && knots[k] == knots[k + 1] {
+        k += 1;
+    }
+    k
+}
+
+/// Non-zero basis functions N_{span−p+j,p} and their first two derivatives
+/// at `t` (A2.3 with n = 2): `ders[k][j]`. Precondition: non-empty span.
+#[allow(clippy::needless_range_loop)] // index form of the book's algorithm
+pub(crate) fn basis_derivs(knots: &[f64], span: usize, t: f64, p: usize) -> [[f64; MAXP]; 3] {
+    let mut ndu = [[0.0f64; MAXP]; MAXP];
+    let mut left = [0.0f64; MAXP];
+    let mut right = [0.0f64; MAXP];
+    ndu[0][0] = 1.0;
+    for j in 1..=p {
+        left[j] = t - knots[span + 1 - j];
+        right[j] = knots[span + j] - t;
+        let mut saved = 0.0;
+        for r in 0..j {
+            ndu[j][r] = right[r + 1] + left[j - r];
+            let temp = ndu[r][j - 1] / ndu[j][r];
+            ndu[r][j] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        ndu[j][j] = saved;
+    }
+    let mut ders = [[0.0f64; MAXP]; 3];
+    for j in 0..=p {
+        ders[0][j] = ndu[j][p];
+    }
+    let nd = p.min(2);
+    let mut a = [[0.0f64; MAXP]; 2];
+    for r in 0..=p {
+        let (mut s1, mut s2) = (0, 1);
+        a[0][0] = 1.0;
+        for k in 1..=nd {
+            let mut d = 0.0;
+            let rk = r as isize - k as isize;
+            let pk = p - k;
+            if rk >= 0 {
+                a[s2][0] = a[s1][0] / ndu[pk + 1][rk as usize];
+                d = a[s2][0] * ndu[rk as usize][pk];
+            }
+            let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
+            let j2 = if r <= pk + 1 { k - 1 } else { p - r };
+            for j in j1..=j2 {
+                let c = (rk + j as isize) as usize;
+                a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][c];
+                d += a[s2][j] * ndu[c][pk];
+            }
+            if r <= pk {
+                a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r];
+                d += a[s2][k] * ndu[r][pk];
+            }
+            ders[k][r] = d;
+            std::mem::swap(&mut s1, &mut s2);
+        }
+    }
+    // Multiply by p!/(p−k)!.
+    let mut f = p as f64;
+    for k in 1..=nd {
+        for j in 0..=p {
+            ders[k][j] *= f;
+        }
+        f *= (p - k) as f64;
+    }
+    ders
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -338,7 +335,7 @@ mod tests {
     fn basis_functions_sum_to_one_and_derivatives_to_zero() {
         let u = [0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 4.0, 4.0, 5.0, 5.0, 5.0];
         // The NURBS Book Ex. 2.4: t = 5/2, p = 2, span 4.
-        let d = basis_derivs(&u, 4, 2.5, 2, 2);
+        let d = basis_derivs(&u, 4, 2.5, 2);
         assert!((d[0].iter().sum::<f64>() - 1.0).abs() < 1e-14);
         assert!(d[1].iter().sum::<f64>().abs() < 1e-14);
         assert!(d[2].iter().sum::<f64>().abs() < 1e-14);

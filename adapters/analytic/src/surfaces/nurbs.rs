@@ -10,9 +10,7 @@
 use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3, V3};
 
 use super::{area_singular, newton_inverse, typical_partials, wrap, ParamBox, SurfaceError};
-use crate::curves::{GeometryError, Nurbs, MAX_NURBS_DEGREE};
-
-const MAXP: usize = MAX_NURBS_DEGREE + 1;
+use crate::curves::{basis_derivs, clamped_uniform_knots, find_span, GeometryError, Nurbs};
 
 /// A NURBS surface of degrees (p, q) with an nu × nv control net P_ij,
 /// weights w_ij > 0 and knot vectors U = (u_0 … u_{nu+p}),
@@ -323,97 +321,6 @@ impl Surface for NurbsSurface {
     fn is_singular(&self, u: f64, v: f64) -> bool {
         area_singular(&self.derivs(u, v), self.scale)
     }
-}
-
-/// The clamped uniform knot vector on [0, 1] for `n` control points
-/// (empty when the degree or count is invalid; [`Nurbs::new`] reports it).
-fn clamped_uniform_knots(p: usize, n: usize) -> Vec<f64> {
-    if p == 0 || n < p + 1 {
-        return Vec::new();
-    }
-    let spans = n - p;
-    let mut k = vec![0.0; p + 1];
-    k.extend((1..spans).map(|i| i as f64 / spans as f64));
-    k.extend(std::iter::repeat(1.0).take(p + 1));
-    k
-}
-
-/// The knot span k ∈ [p, n−1] with u_k ≤ t < u_{k+1}, u_k < u_{k+1} (A2.1);
-/// outside the domain (and NaN) the first or last non-empty span, as for
-/// the curves.
-fn find_span(knots: &[f64], p: usize, n: usize, t: f64) -> usize {
-    let idx = knots[p..=n].partition_point(|&x| x <= t);
-    let mut k = (p + idx).saturating_sub(1).clamp(p, n - 1);
-    while k > p && knots[k] == knots[k + 1] {
-        k -= 1;
-    }
-    while k < n - 1 && knots[k] == knots[k + 1] {
-        k += 1;
-    }
-    k
-}
-
-/// Non-zero basis functions N_{span−p+j,p} and their first two derivatives
-/// at `t` (A2.3 with n = 2): `ders[k][j]`. Precondition: non-empty span.
-#[allow(clippy::needless_range_loop)] // index form of the book's algorithm
-fn basis_derivs(knots: &[f64], span: usize, t: f64, p: usize) -> [[f64; MAXP]; 3] {
-    let mut ndu = [[0.0f64; MAXP]; MAXP];
-    let mut left = [0.0f64; MAXP];
-    let mut right = [0.0f64; MAXP];
-    ndu[0][0] = 1.0;
-    for j in 1..=p {
-        left[j] = t - knots[span + 1 - j];
-        right[j] = knots[span + j] - t;
-        let mut saved = 0.0;
-        for r in 0..j {
-            ndu[j][r] = right[r + 1] + left[j - r];
-            let temp = ndu[r][j - 1] / ndu[j][r];
-            ndu[r][j] = saved + right[r + 1] * temp;
-            saved = left[j - r] * temp;
-        }
-        ndu[j][j] = saved;
-    }
-    let mut ders = [[0.0f64; MAXP]; 3];
-    for j in 0..=p {
-        ders[0][j] = ndu[j][p];
-    }
-    let nd = p.min(2);
-    let mut a = [[0.0f64; MAXP]; 2];
-    for r in 0..=p {
-        let (mut s1, mut s2) = (0, 1);
-        a[0][0] = 1.0;
-        for k in 1..=nd {
-            let mut d = 0.0;
-            let rk = r as isize - k as isize;
-            let pk = p - k;
-            if rk >= 0 {
-                a[s2][0] = a[s1][0] / ndu[pk + 1][rk as usize];
-                d = a[s2][0] * ndu[rk as usize][pk];
-            }
-            let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
-            let j2 = if r <= pk + 1 { k - 1 } else { p - r };
-            for j in j1..=j2 {
-                let c = (rk + j as isize) as usize;
-                a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][c];
-                d += a[s2][j] * ndu[c][pk];
-            }
-            if r <= pk {
-                a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r];
-                d += a[s2][k] * ndu[r][pk];
-            }
-            ders[k][r] = d;
-            std::mem::swap(&mut s1, &mut s2);
-        }
-    }
-    // Multiply by p!/(p−k)!.
-    let mut f = p as f64;
-    for k in 1..=nd {
-        for j in 0..=p {
-            ders[k][j] *= f;
-        }
-        f *= (p - k) as f64;
-    }
-    ders
 }
 
 #[cfg(test)]
