@@ -328,6 +328,14 @@ fn build_spacing(
 fn run_mesh(a: MeshArgs) -> Result<(), String> {
     let t0 = Instant::now();
     let kind = output_kind(&a.output)?;
+    // directories for side outputs are made before meshing, so a bad one
+    // fails the run before any output is written
+    for dir in [a.picture.plots.as_ref(), a.frames.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        ensure_dir(dir)?;
+    }
     if let Some(p) = &a.animate {
         if Kind::from_path(p) != Some(Kind::Html) {
             return Err(format!(
@@ -443,8 +451,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         let frames = settle_frames(&model, spacing, &opts, &mesh, &report, a.quiet)?;
         let pictures = frame_pictures(&model, spacing, &a.picture, &frames)?;
         if let Some(dir) = &a.frames {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))?;
+            ensure_dir(dir)?;
             for (k, (f, svg)) in frames.iter().zip(&pictures).enumerate() {
                 write_atomically(&dir.join(format!("frame_{k:03}.svg")), svg.svg.as_bytes())?;
                 let png =
@@ -623,8 +630,7 @@ fn write_plots(
     title: &str,
 ) -> Result<(), String> {
     use bubblemesh_viz::plots;
-    std::fs::create_dir_all(dir)
-        .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))?;
+    ensure_dir(dir)?;
     let mut files: Vec<(String, String)> = Vec::new();
     if let Some(r) = report {
         let faces: Vec<plots::FaceEnergy> = r
@@ -787,6 +793,12 @@ fn run_quality(a: QualityArgs) -> Result<(), String> {
         write_atomically(path, text.as_bytes())?;
     }
     Ok(())
+}
+
+/// Creates `dir` (and its parents) unless it exists.
+fn ensure_dir(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))
 }
 
 /// Writes a file whole or not at all (temporary file, then rename).
