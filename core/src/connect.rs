@@ -426,6 +426,13 @@ fn fill_caps(
     Ok(())
 }
 
+/// Signed area of a triangle of `uv` (positive when counter-clockwise).
+#[cfg(test)]
+fn signed_area(uv: &[[f64; 2]], t: [usize; 3]) -> f64 {
+    let (a, b, c) = (uv[t[0]], uv[t[1]], uv[t[2]]);
+    0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -444,13 +451,7 @@ mod tests {
         uv.push([0.0, 0.0]);
         let t = triangulate(&uv, &[], &[], |_| true).unwrap();
         assert_eq!(t.len(), 8);
-        let area: f64 = t
-            .iter()
-            .map(|t| {
-                let (a, b, c) = (uv[t[0]], uv[t[1]], uv[t[2]]);
-                0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
-            })
-            .sum();
+        let area: f64 = t.iter().map(|t| signed_area(&uv, *t)).sum();
         assert!((area - 2.0 * 2f64.sqrt()).abs() < 1e-12);
     }
 
@@ -506,18 +507,10 @@ mod classification {
         ];
         let b = [[0, 1], [1, 2], [2, 3], [3, 4], [4, 0]];
         let t = triangulate(&uv, &b, &b, |_| true).unwrap();
-        let area: f64 = t
-            .iter()
-            .map(|t| {
-                let (a, b, c) = (uv[t[0]], uv[t[1]], uv[t[2]]);
-                0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
-            })
-            .sum();
+        let area: f64 = t.iter().map(|t| signed_area(&uv, *t)).sum();
         assert!((area - 1.0).abs() < 1e-12, "area {area}");
         for tri in &t {
-            let (a, b, c) = (uv[tri[0]], uv[tri[1]], uv[tri[2]]);
-            let ar = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]));
-            assert!(ar > 1e-6, "sliver kept: {tri:?}");
+            assert!(signed_area(&uv, *tri) > 1e-6, "sliver kept: {tri:?}");
         }
     }
 
@@ -544,13 +537,7 @@ mod classification {
             [7, 4],
         ];
         let t = triangulate(&uv, &b, &b, |_| true).unwrap();
-        let area: f64 = t
-            .iter()
-            .map(|t| {
-                let (a, b, c) = (uv[t[0]], uv[t[1]], uv[t[2]]);
-                0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]))
-            })
-            .sum();
+        let area: f64 = t.iter().map(|t| signed_area(&uv, *t)).sum();
         assert!((area - 8.0).abs() < 1e-12, "area {area}");
     }
 }
