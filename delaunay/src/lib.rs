@@ -1,0 +1,680 @@
+//! 3D Delaunay tetrahedralization for bubblemesh's volume mesher.
+//!
+//! Bowyer–Watson insertion (cavity search from the tetrahedron that contains
+//! the new point, found by a stochastic visibility walk from the last created
+//! tetrahedron), in BRIO + Hilbert order, on flat arrays. Predicates are exact
+//! (Shewchuk's adaptive `orient3d`/`insphere` from the `robust` crate) and
+//! `insphere == 0` ties are broken by a symbolic perturbation of the lifting
+//! map (see [`pred`](crate) docs in `src/pred.rs`), so degenerate inputs
+//! (lattices, cospherical and coplanar sets) give a valid triangulation of
+//! the convex hull, and the result is the same for every insertion order.
+//!
+//! Why written here: the `delaunay` crate takes ~56 s for 7,500 points and
+//! `spade` is 2D only; the volume mesher needs ≥ 1 M tets/s and incremental
+//! Steiner-point insertion.
+//!
+//! # Invariants of a [`Tetrahedralization`]
+//! - `tets[t]` are indices into the input points; every tet is *positive*:
+//!   `(b - a) · ((c - a) × (d - a)) > 0` (right-handed, as in
+//!   `bubblemesh_core::mesh`), i.e. `robust::orient3d(a, b, c, d) < 0` in
+//!   Shewchuk's sign convention. Never zero volume (checked exactly).
+//! - `neighbours[t][i]` is the tet across the face opposite `tets[t][i]`, or
+//!   [`HULL`] (`u32::MAX`) on the convex hull; the relation is symmetric.
+//! - The union of the tets is the convex hull of the distinct input points;
+//!   every distinct point is a vertex; no circumsphere has a point strictly
+//!   inside (points *on* a circumsphere are resolved by the perturbation).
+//! - `duplicates` lists `(index, kept_index)` for every input point equal to
+//!   an earlier-kept one; such points are in no tet.
+//!
+//! Limits: up to 2^30 tetrahedra (≈ 1.6·10^8 points) because neighbour links
+//! pack `4 * tet + face` into a `u32`; coordinates must be finite and, for the
+//! predicates to stay exact, between about 1e-60 and 1e60 in magnitude (no
+//! underflow/overflow of the degree-5 in-sphere products).
+
+mod pred;
+mod sort;
+
+use pred::{insph, orient, perturbed_inside};
+
+/// Neighbour value for a face on the convex hull.
+pub const HULL: u32 = u32::MAX;
+
+/// Internal id of the vertex at infinity (hull tets contain it).
+const INF: u32 = u32::MAX;
+/// Vertex id stored in freed tet slots.
+const DEAD: u32 = u32::MAX - 1;
+/// "No tet" in the vertex → tet map.
+const NONE: u32 = u32::MAX;
+/// Largest number of tet slots (neighbour links are `4 * tet + face`).
+const MAX_TETS: usize = 1 << 30;
+/// Seed of the (deterministic) BRIO shuffle.
+const SEED: u64 = 0x5EED_DE1A_0A11;
+
+/// Why a tetrahedralization or an insertion failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DelaunayError {
+    /// A 3D tetrahedralization needs at least four points.
+    #[error("need at least 4 points for a tetrahedralization, got {0}")]
+    TooFewPoints(usize),
+    /// All distinct points lie in one plane (or on one line, or coincide).
+    #[error(
+        "all {0} points are coplanar (or collinear or coincident): no tetrahedron can be formed"
+    )]
+    Coplanar(usize),
+    /// A coordinate is NaN or infinite.
+    #[error("point {index} has a non-finite coordinate {point:?}")]
+    NonFinite {
+        /// Index of the offending point (for `insert`: the index it would have got).
+        index: usize,
+        /// Its coordinates.
+        point: [f64; 3],
+    },
+    /// `insert` was given a point equal to an existing vertex; nothing changed.
+    #[error("point {point:?} duplicates existing vertex {existing}")]
+    Duplicate {
+        /// The existing vertex with the same coordinates.
+        existing: u32,
+        /// The rejected coordinates.
+        point: [f64; 3],
+    },
+    /// More points or tetrahedra than the `u32` indices can address.
+    #[error("too many points or tetrahedra for 32-bit indices ({0} points)")]
+    TooLarge(usize),
+}
+
+/// A finished tetrahedralization (finite tets only). See the crate docs for
+/// the invariants.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tetrahedralization {
+    /// Positive (right-handed) tets, as indices into the input points.
+    pub tets: Vec<[u32; 4]>,
+    /// `neighbours[t][i]`: tet across the face opposite `tets[t][i]`, or [`HULL`].
+    pub neighbours: Vec<[u32; 4]>,
+    /// `(duplicate_index, kept_index)` for each skipped duplicate point.
+    pub duplicates: Vec<(u32, u32)>,
+}
+
+/// Delaunay tetrahedralization of `points` (indices of the output refer to
+/// `points`). Duplicates are skipped and reported, not an error.
+///
+/// Errors: fewer than 4 points, a non-finite coordinate (with its index), all
+/// points coplanar.
+pub fn tetrahedralize(points: &[[f64; 3]]) -> Result<Tetrahedralization, DelaunayError> {
+    Ok(Delaunay3::new(points)?.tetrahedralization())
+}
+
+/// An incremental 3D Delaunay triangulation (build with [`Delaunay3::new`],
+/// add Steiner points with [`Delaunay3::insert`]).
+///
+/// Internally it also stores *hull tets*: each hull face plus the vertex at
+/// infinity, oriented so that replacing that vertex by any point strictly
+/// outside the hull gives a positive tet. They make insertion outside the
+/// current hull the same operation as inside, and are never returned.
+#[derive(Debug, Clone)]
+pub struct Delaunay3 {
+    pts: Vec<[f64; 3]>,
+    /// Tet vertex ids (`INF` in hull tets, `[DEAD; 4]` for freed slots).
+    tv: Vec<[u32; 4]>,
+    /// `tn[t][i] = 4 * u + j`: face `i` of `t` is face `j` of `u`.
+    tn: Vec<[u32; 4]>,
+    /// Per-tet stamp of the cavity search (`2s` in conflict, `2s+1` not).
+    mark: Vec<u32>,
+    free: Vec<u32>,
+    /// Some live tet incident to each vertex (`NONE` for duplicates).
+    vtet: Vec<u32>,
+    dups: Vec<(u32, u32)>,
+    n_finite: usize,
+    last: u32,
+    stamp: u32,
+    rng: u64,
+    // Scratch reused by every insertion (no per-insertion allocation).
+    stack: Vec<u32>,
+    cavity: Vec<u32>,
+    boundary: Vec<(u32, u32)>,
+    newtets: Vec<([u32; 4], u32, u32)>,
+    edges: EdgeTable,
+}
+
+enum Located {
+    Tet(u32),
+    Duplicate(u32),
+}
+
+impl Delaunay3 {
+    /// Delaunay tetrahedralization of `points`; vertex `i` is `points[i]`.
+    /// Points are inserted in BRIO + Hilbert order; duplicates are recorded
+    /// (see [`Delaunay3::duplicates`]) and skipped.
+    pub fn new(points: &[[f64; 3]]) -> Result<Self, DelaunayError> {
+        let n = points.len();
+        if n < 4 {
+            return Err(DelaunayError::TooFewPoints(n));
+        }
+        if n > (u32::MAX - 2) as usize {
+            return Err(DelaunayError::TooLarge(n));
+        }
+        if let Some(index) = points
+            .iter()
+            .position(|p| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()))
+        {
+            return Err(DelaunayError::NonFinite {
+                index,
+                point: points[index],
+            });
+        }
+        let order = sort::brio_hilbert(points, SEED);
+        let first = initial_tet(points, &order).ok_or(DelaunayError::Coplanar(n))?;
+        let mut d = Delaunay3 {
+            pts: points.to_vec(),
+            tv: Vec::with_capacity(7 * n),
+            tn: Vec::with_capacity(7 * n),
+            mark: Vec::with_capacity(7 * n),
+            free: Vec::new(),
+            vtet: vec![NONE; n],
+            dups: Vec::new(),
+            n_finite: 0,
+            last: 0,
+            stamp: 0,
+            rng: SEED,
+            stack: Vec::new(),
+            cavity: Vec::new(),
+            boundary: Vec::new(),
+            newtets: Vec::new(),
+            edges: EdgeTable::default(),
+        };
+        d.init(first);
+        for &i in &order {
+            if first.contains(&i) {
+                continue;
+            }
+            if d.tv.len() + 64 > MAX_TETS {
+                return Err(DelaunayError::TooLarge(n));
+            }
+            if let Err(kept) = d.insert_vertex(i, d.last) {
+                d.dups.push((i, kept));
+            }
+        }
+        Ok(d)
+    }
+
+    /// Inserts one point and returns its vertex id (`points().len()` before
+    /// the call). `hint` is an existing vertex near `p` (the walk starts
+    /// there); `None` starts from the last created tet. Points outside the
+    /// current hull are fine.
+    ///
+    /// Errors: non-finite coordinate; `Duplicate` if `p` equals an existing
+    /// vertex (the triangulation is then unchanged); `TooLarge`.
+    pub fn insert(&mut self, p: [f64; 3], hint: Option<u32>) -> Result<u32, DelaunayError> {
+        let id = self.pts.len();
+        if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
+            return Err(DelaunayError::NonFinite {
+                index: id,
+                point: p,
+            });
+        }
+        if id >= (u32::MAX - 2) as usize || self.tv.len() + 64 > MAX_TETS {
+            return Err(DelaunayError::TooLarge(id));
+        }
+        let start = hint
+            .and_then(|h| self.vtet.get(h as usize).copied())
+            .filter(|&t| t != NONE)
+            .unwrap_or(self.last);
+        self.pts.push(p);
+        self.vtet.push(NONE);
+        match self.insert_vertex(id as u32, start) {
+            Ok(()) => Ok(id as u32),
+            Err(existing) => {
+                self.pts.pop();
+                self.vtet.pop();
+                Err(DelaunayError::Duplicate { existing, point: p })
+            }
+        }
+    }
+
+    /// All points given so far (vertex ids index this; duplicates included).
+    pub fn points(&self) -> &[[f64; 3]] {
+        &self.pts
+    }
+
+    /// `(duplicate_index, kept_index)` pairs skipped by [`Delaunay3::new`].
+    pub fn duplicates(&self) -> &[(u32, u32)] {
+        &self.dups
+    }
+
+    /// Number of finite tets.
+    pub fn num_tets(&self) -> usize {
+        self.n_finite
+    }
+
+    /// The finite tets (positive orientation), in storage order.
+    pub fn tets(&self) -> impl Iterator<Item = [u32; 4]> + '_ {
+        self.tv
+            .iter()
+            .filter(|v| v[0] != DEAD && !v.contains(&INF))
+            .copied()
+    }
+
+    /// Whether the triangle `f` (vertex ids, any order) is a face of some
+    /// finite tet. Costs O(number of tets around `f[0]`).
+    pub fn has_face(&self, f: [u32; 3]) -> bool {
+        let Some(&t0) = self.vtet.get(f[0] as usize) else {
+            return false;
+        };
+        let n = self.pts.len() as u32;
+        if t0 == NONE || f.iter().any(|&x| x >= n) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+            return false;
+        }
+        // Depth-first search over the tets around vertex f[0].
+        let mut seen = vec![t0];
+        let mut stack = vec![t0];
+        while let Some(t) = stack.pop() {
+            let v = self.tv[t as usize];
+            if v.contains(&f[1]) && v.contains(&f[2]) {
+                // The face is in a hull tet only if it is a hull face, which
+                // also belongs to the finite tet across it.
+                return true;
+            }
+            for (j, &vj) in v.iter().enumerate() {
+                if vj != f[0] {
+                    let u = self.tn[t as usize][j] >> 2;
+                    if !seen.contains(&u) {
+                        seen.push(u);
+                        stack.push(u);
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Compacted copy of the finite tets with neighbours (see the crate docs).
+    pub fn tetrahedralization(&self) -> Tetrahedralization {
+        let mut map = vec![HULL; self.tv.len()];
+        let mut tets = Vec::with_capacity(self.n_finite);
+        for (t, v) in self.tv.iter().enumerate() {
+            if v[0] != DEAD && !v.contains(&INF) {
+                map[t] = tets.len() as u32;
+                tets.push(*v);
+            }
+        }
+        let mut neighbours = Vec::with_capacity(tets.len());
+        for t in 0..self.tv.len() {
+            if map[t] != HULL {
+                neighbours.push(self.tn[t].map(|l| map[(l >> 2) as usize]));
+            }
+        }
+        Tetrahedralization {
+            tets,
+            neighbours,
+            duplicates: self.dups.clone(),
+        }
+    }
+
+    // ---- construction -------------------------------------------------
+
+    /// First positive tet plus its four hull tets, linked.
+    fn init(&mut self, first: [u32; 4]) {
+        let mut v = first;
+        let p = |i: u32| &self.pts[i as usize];
+        if orient(p(v[0]), p(v[1]), p(v[2]), p(v[3])) < 0.0 {
+            v.swap(0, 1);
+        }
+        let mut tets = vec![v];
+        for i in 0..4 {
+            // Replace vertex i by INF and flip: outside points make it positive.
+            let mut w = v;
+            w[i] = INF;
+            w.swap((i + 1) & 3, (i + 2) & 3);
+            tets.push(w);
+        }
+        let face = |w: &[u32; 4], i: usize| {
+            let mut f = [w[(i + 1) & 3], w[(i + 2) & 3], w[(i + 3) & 3]];
+            f.sort_unstable();
+            f
+        };
+        for (t, w) in tets.iter().enumerate() {
+            let mut links = [0u32; 4];
+            for (i, link) in links.iter_mut().enumerate() {
+                let fi = face(w, i);
+                let (u, j) = (0..5)
+                    .filter(|&u| u != t)
+                    .flat_map(|u| (0..4).map(move |j| (u, j)))
+                    .find(|&(u, j)| face(&tets[u], j) == fi)
+                    .expect("the five initial tets are closed");
+                *link = (4 * u + j) as u32;
+            }
+            self.tv.push(*w);
+            self.tn.push(links);
+            self.mark.push(0);
+        }
+        for &x in &v {
+            self.vtet[x as usize] = 0;
+        }
+        self.n_finite = 1;
+        self.last = 0;
+    }
+
+    #[inline(always)]
+    fn pt(&self, v: u32) -> &[f64; 3] {
+        &self.pts[v as usize]
+    }
+
+    /// Orientation of tet `v` with vertex `i` replaced by `p` (`v` finite
+    /// except possibly at `i`): `> 0` iff `p` is on the same side of face `i`
+    /// as a point that makes `v` positive.
+    #[inline(always)]
+    fn orient_replaced(&self, v: &[u32; 4], i: usize, p: &[f64; 3]) -> f64 {
+        let q = |k: usize| if k == i { p } else { self.pt(v[k]) };
+        orient(q(0), q(1), q(2), q(3))
+    }
+
+    fn next_rand(&mut self) -> u32 {
+        // xorshift64: only used to randomise the walk's face order.
+        self.rng ^= self.rng << 13;
+        self.rng ^= self.rng >> 7;
+        self.rng ^= self.rng << 17;
+        self.rng as u32
+    }
+
+    /// Finds a tet in conflict with `p`: a finite tet whose closure contains
+    /// `p`, or a hull tet whose hull face `p` sees strictly. Or the vertex
+    /// equal to `p`.
+    fn locate(&mut self, p: &[f64; 3], start: u32) -> Located {
+        let mut t = start;
+        if let Some(k) = self.tv[t as usize].iter().position(|&x| x == INF) {
+            let v = self.tv[t as usize];
+            if self.orient_replaced(&v, k, p) > 0.0 {
+                return Located::Tet(t);
+            }
+            t = self.tn[t as usize][k] >> 2;
+        }
+        let mut prev = NONE;
+        // A visibility walk in a (perturbed) Delaunay triangulation cannot
+        // cycle (Edelsbrunner's acyclicity theorem) and the random face order
+        // makes it terminate on any triangulation with probability 1; the
+        // step cap is a guard that falls back to a scan.
+        let cap = 64 + 4 * self.tv.len();
+        for _ in 0..cap {
+            let v = self.tv[t as usize];
+            let r = self.next_rand() as usize;
+            let mut moved = false;
+            for s in 0..4 {
+                let i = (r + s) & 3;
+                let u = self.tn[t as usize][i] >> 2;
+                if u == prev {
+                    continue;
+                }
+                if self.orient_replaced(&v, i, p) < 0.0 {
+                    prev = t;
+                    t = u;
+                    moved = true;
+                    break;
+                }
+            }
+            if !moved {
+                return self.closed_tet(t, p);
+            }
+            if self.tv[t as usize].contains(&INF) {
+                return Located::Tet(t);
+            }
+        }
+        self.locate_by_scan(p)
+    }
+
+    fn closed_tet(&self, t: u32, p: &[f64; 3]) -> Located {
+        for &x in &self.tv[t as usize] {
+            if self.pt(x) == p {
+                return Located::Duplicate(x);
+            }
+        }
+        Located::Tet(t)
+    }
+
+    /// O(n) fallback of `locate`.
+    fn locate_by_scan(&self, p: &[f64; 3]) -> Located {
+        for (t, v) in self.tv.iter().enumerate() {
+            if v[0] != DEAD
+                && !v.contains(&INF)
+                && (0..4).all(|i| self.orient_replaced(v, i, p) >= 0.0)
+            {
+                return self.closed_tet(t as u32, p);
+            }
+        }
+        for (t, v) in self.tv.iter().enumerate() {
+            if let Some(k) = v.iter().position(|&x| x == INF) {
+                if v[0] != DEAD && self.orient_replaced(v, k, p) > 0.0 {
+                    return Located::Tet(t as u32);
+                }
+            }
+        }
+        unreachable!("a point is inside the hull or sees a hull face")
+    }
+
+    /// Whether `pid` is in conflict with tet `t` (its perturbed circumball,
+    /// or for a hull tet: strictly beyond the hull face, or in the face's
+    /// plane and inside its perturbed circumcircle).
+    #[inline]
+    fn conflict(&self, t: u32, pid: u32) -> bool {
+        let v = self.tv[t as usize];
+        let p = self.pt(pid);
+        if let Some(k) = v.iter().position(|&x| x == INF) {
+            let o = self.orient_replaced(&v, k, p);
+            if o != 0.0 {
+                return o > 0.0;
+            }
+            // p is in the plane of the hull face: inside its circumcircle iff
+            // inside the sphere through the face and any point off the plane,
+            // e.g. the vertex d across the face (the tet is then negative).
+            let l = self.tn[t as usize][k];
+            let d = self.tv[(l >> 2) as usize][(l & 3) as usize];
+            let mut w = v;
+            w[k] = d;
+            let q = |k: usize| self.pt(w[k]);
+            let s = insph(q(0), q(1), q(2), q(3), p);
+            if s != 0.0 {
+                return s < 0.0;
+            }
+            return perturbed_inside(&self.pts, w, -1.0, pid);
+        }
+        let q = |k: usize| self.pt(v[k]);
+        let s = insph(q(0), q(1), q(2), q(3), p);
+        if s != 0.0 {
+            return s > 0.0;
+        }
+        perturbed_inside(&self.pts, v, 1.0, pid)
+    }
+
+    /// Bowyer–Watson insertion of vertex `pid` (already in `pts`); walk from
+    /// tet `start`. `Err(existing)` if it duplicates a vertex.
+    fn insert_vertex(&mut self, pid: u32, start: u32) -> Result<(), u32> {
+        let p = *self.pt(pid);
+        let t0 = match self.locate(&p, start) {
+            Located::Duplicate(x) => return Err(x),
+            Located::Tet(t) => t,
+        };
+        debug_assert!(self.conflict(t0, pid));
+        if self.stamp >= (u32::MAX >> 1) - 1 {
+            self.mark.iter_mut().for_each(|m| *m = 0);
+            self.stamp = 0;
+        }
+        self.stamp += 1;
+        let (inside, outside) = (2 * self.stamp, 2 * self.stamp + 1);
+
+        // Cavity: the connected set of tets in conflict (star-shaped from p).
+        self.cavity.clear();
+        self.boundary.clear();
+        self.stack.clear();
+        self.mark[t0 as usize] = inside;
+        self.cavity.push(t0);
+        self.stack.push(t0);
+        while let Some(t) = self.stack.pop() {
+            for i in 0..4 {
+                let u = self.tn[t as usize][i] >> 2;
+                let m = self.mark[u as usize];
+                if m == inside {
+                    continue;
+                }
+                if m != outside && self.conflict(u, pid) {
+                    self.mark[u as usize] = inside;
+                    self.cavity.push(u);
+                    self.stack.push(u);
+                } else {
+                    self.mark[u as usize] = outside;
+                    self.boundary.push((t, i as u32));
+                }
+            }
+        }
+
+        // New tets: each boundary face joined to p (p replaces the vertex
+        // opposite the face, which keeps the orientation since p and that
+        // vertex are on the same side of the face).
+        self.newtets.clear();
+        for &(t, i) in &self.boundary {
+            let mut v = self.tv[t as usize];
+            v[i as usize] = pid;
+            self.newtets.push((v, i, self.tn[t as usize][i as usize]));
+        }
+        for &t in &self.cavity {
+            if !self.tv[t as usize].contains(&INF) {
+                self.n_finite -= 1;
+            }
+        }
+        self.edges.reset(self.newtets.len());
+        let mut reuse = 0;
+        for k in 0..self.newtets.len() {
+            let (v, i, outer) = self.newtets[k];
+            let id = if reuse < self.cavity.len() {
+                reuse += 1;
+                self.cavity[reuse - 1]
+            } else if let Some(f) = self.free.pop() {
+                f
+            } else {
+                self.tv.push([DEAD; 4]);
+                self.tn.push([0; 4]);
+                self.mark.push(0);
+                (self.tv.len() - 1) as u32
+            };
+            let idx = id as usize;
+            self.tv[idx] = v;
+            self.mark[idx] = 0;
+            self.tn[idx][i as usize] = outer;
+            self.tn[(outer >> 2) as usize][(outer & 3) as usize] = 4 * id + i;
+            let finite = !v.contains(&INF);
+            if finite {
+                self.n_finite += 1;
+            }
+            for j in 0..4 {
+                if j != i as usize {
+                    // Face j = p + the edge of the boundary face without v[j].
+                    let (a, b) = other_two(i as usize, j);
+                    let (a, b) = (v[a], v[b]);
+                    let key = if a < b {
+                        (u64::from(a) << 32) | u64::from(b)
+                    } else {
+                        (u64::from(b) << 32) | u64::from(a)
+                    };
+                    if let Some(l) = self.edges.pair(key, 4 * id + j as u32) {
+                        self.tn[idx][j] = l;
+                        self.tn[(l >> 2) as usize][(l & 3) as usize] = 4 * id + j as u32;
+                    }
+                }
+                if v[j] != INF {
+                    self.vtet[v[j] as usize] = id;
+                }
+            }
+            if finite || k == 0 {
+                self.last = id;
+            }
+        }
+        for &t in &self.cavity[reuse..] {
+            self.tv[t as usize] = [DEAD; 4];
+            self.free.push(t);
+        }
+        Ok(())
+    }
+}
+
+/// The two positions of a tet other than `i` and `j` (`i != j`).
+#[inline(always)]
+fn other_two(i: usize, j: usize) -> (usize, usize) {
+    let mut r = [0usize; 2];
+    let mut n = 0;
+    for k in 0..4 {
+        if k != i && k != j {
+            r[n] = k;
+            n += 1;
+        }
+    }
+    (r[0], r[1])
+}
+
+/// First four affinely independent points in `order`, or `None` if all points
+/// are coplanar (exact tests).
+fn initial_tet(pts: &[[f64; 3]], order: &[u32]) -> Option<[u32; 4]> {
+    let p = |i: u32| &pts[i as usize];
+    let a = order[0];
+    let b = *order.iter().find(|&&i| p(i) != p(a))?;
+    let collinear = |i: u32| {
+        use robust::{orient2d, Coord};
+        let (x, y, z) = (p(a), p(b), p(i));
+        (0..3).all(|k| {
+            let (u, w) = (k, (k + 1) % 3);
+            let c = |q: &[f64; 3]| Coord { x: q[u], y: q[w] };
+            orient2d(c(x), c(y), c(z)) == 0.0
+        })
+    };
+    let c = *order.iter().find(|&&i| !collinear(i))?;
+    let d = *order
+        .iter()
+        .find(|&&i| orient(p(a), p(b), p(c), p(i)) != 0.0)?;
+    Some([a, b, c, d])
+}
+
+/// Open-addressing map from cavity-boundary edges to the new-tet face that
+/// first claimed them; cleared in O(1) per insertion by a generation counter.
+#[derive(Debug, Clone, Default)]
+struct EdgeTable {
+    keys: Vec<u64>,
+    vals: Vec<u32>,
+    gens: Vec<u32>,
+    gen: u32,
+    shift: u32,
+}
+
+impl EdgeTable {
+    /// Prepares for a cavity with `faces` boundary faces (3·faces/2 edges).
+    fn reset(&mut self, faces: usize) {
+        let need = (faces * 6).next_power_of_two().max(256);
+        if need > self.keys.len() {
+            self.keys = vec![0; need];
+            self.vals = vec![0; need];
+            self.gens = vec![0; need];
+            self.gen = 0;
+            self.shift = 64 - need.trailing_zeros();
+        }
+        self.gen = self.gen.wrapping_add(1);
+        if self.gen == 0 {
+            self.gens.iter_mut().for_each(|g| *g = 0);
+            self.gen = 1;
+        }
+    }
+
+    /// If `key` was stored in this generation, returns its value; otherwise
+    /// stores `val` under it.
+    #[inline]
+    fn pair(&mut self, key: u64, val: u32) -> Option<u32> {
+        let mask = self.keys.len() - 1;
+        let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize;
+        loop {
+            if self.gens[h] != self.gen {
+                self.gens[h] = self.gen;
+                self.keys[h] = key;
+                self.vals[h] = val;
+                return None;
+            }
+            if self.keys[h] == key {
+                return Some(self.vals[h]);
+            }
+            h = (h + 1) & mask;
+        }
+    }
+}
