@@ -39,8 +39,25 @@ use pred::{insph, orient, perturbed_inside};
 /// Neighbour value for a face on the convex hull.
 pub const HULL: u32 = u32::MAX;
 
-/// Internal id of the vertex at infinity (hull tets contain it).
+/// Internal id of the vertex at infinity. Hull tets hold it at position 3:
+/// the initial ones are built so, and a new tet inherits its vertex positions
+/// from a cavity tet with only the vertex opposite the boundary face replaced
+/// (a finite face of a hull tet gives a finite new tet), so it stays there.
 const INF: u32 = u32::MAX;
+
+/// Whether tet vertices `v` (of a live tet) form a hull tet.
+#[inline(always)]
+fn is_hull(v: &[u32; 4]) -> bool {
+    v[3] == INF
+}
+
+/// `OTHER[i][j]`: the two positions of a tet other than `i` and `j`.
+const OTHER: [[(usize, usize); 4]; 4] = [
+    [(0, 0), (2, 3), (1, 3), (1, 2)],
+    [(2, 3), (0, 0), (0, 3), (0, 2)],
+    [(1, 3), (0, 3), (0, 0), (0, 1)],
+    [(1, 2), (0, 2), (0, 1), (0, 0)],
+];
 /// Vertex id stored in freed tet slots.
 const DEAD: u32 = u32::MAX - 1;
 /// "No tet" in the vertex → tet map.
@@ -112,7 +129,14 @@ pub fn tetrahedralize(points: &[[f64; 3]]) -> Result<Tetrahedralization, Delauna
 /// current hull the same operation as inside, and are never returned.
 #[derive(Debug, Clone)]
 pub struct Delaunay3 {
+    /// Coordinates by *internal* vertex id: the insertion (BRIO + Hilbert)
+    /// order, so that spatially close vertices are close in memory (with the
+    /// input order, every predicate's point loads were cache misses).
     pts: Vec<[f64; 3]>,
+    /// Internal id → caller's id (input index, or the id `insert` returned).
+    ext: Vec<u32>,
+    /// Caller's id → internal id.
+    int: Vec<u32>,
     /// Tet vertex ids (`INF` in hull tets, `[DEAD; 4]` for freed slots).
     tv: Vec<[u32; 4]>,
     /// `tn[t][i] = 4 * u + j`: face `i` of `t` is face `j` of `u`.
@@ -120,8 +144,10 @@ pub struct Delaunay3 {
     /// Per-tet stamp of the cavity search (`2s` in conflict, `2s+1` not).
     mark: Vec<u32>,
     free: Vec<u32>,
-    /// Some live tet incident to each vertex (`NONE` for duplicates).
+    /// Some live tet incident to each vertex (`NONE` for duplicates). Not
+    /// maintained during the batch build of `new` (rebuilt once at its end).
     vtet: Vec<u32>,
+    track_vtet: bool,
     dups: Vec<(u32, u32)>,
     n_finite: usize,
     last: u32,
@@ -162,14 +188,22 @@ impl Delaunay3 {
             });
         }
         let order = sort::brio_hilbert(points, SEED);
-        let first = initial_tet(points, &order).ok_or(DelaunayError::Coplanar(n))?;
+        let pts: Vec<[f64; 3]> = order.iter().map(|&i| points[i as usize]).collect();
+        let first = initial_tet(&pts).ok_or(DelaunayError::Coplanar(n))?;
+        let mut int = vec![0; n];
+        for (k, &i) in order.iter().enumerate() {
+            int[i as usize] = k as u32;
+        }
         let mut d = Delaunay3 {
-            pts: points.to_vec(),
+            pts,
+            ext: order,
+            int,
             tv: Vec::with_capacity(7 * n),
             tn: Vec::with_capacity(7 * n),
             mark: Vec::with_capacity(7 * n),
             free: Vec::new(),
             vtet: vec![NONE; n],
+            track_vtet: false,
             dups: Vec::new(),
             n_finite: 0,
             last: 0,
@@ -182,7 +216,7 @@ impl Delaunay3 {
             edges: EdgeTable::default(),
         };
         d.init(first);
-        for &i in &order {
+        for i in 0..n as u32 {
             if first.contains(&i) {
                 continue;
             }
@@ -190,14 +224,24 @@ impl Delaunay3 {
                 return Err(DelaunayError::TooLarge(n));
             }
             if let Err(kept) = d.insert_vertex(i, d.last) {
-                d.dups.push((i, kept));
+                d.dups.push((d.ext[i as usize], d.ext[kept as usize]));
             }
         }
+        for (t, v) in d.tv.iter().enumerate() {
+            if v[0] != DEAD {
+                for &x in v {
+                    if x != INF {
+                        d.vtet[x as usize] = t as u32;
+                    }
+                }
+            }
+        }
+        d.track_vtet = true;
         Ok(d)
     }
 
-    /// Inserts one point and returns its vertex id (`points().len()` before
-    /// the call). `hint` is an existing vertex near `p` (the walk starts
+    /// Inserts one point and returns its vertex id ([`Delaunay3::num_points`]
+    /// before the call). `hint` is an existing vertex near `p` (the walk starts
     /// there); `None` starts from the last created tet. Points outside the
     /// current hull are fine.
     ///
@@ -215,24 +259,39 @@ impl Delaunay3 {
             return Err(DelaunayError::TooLarge(id));
         }
         let start = hint
-            .and_then(|h| self.vtet.get(h as usize).copied())
+            .and_then(|h| self.int.get(h as usize))
+            .map(|&h| self.vtet[h as usize])
             .filter(|&t| t != NONE)
             .unwrap_or(self.last);
+        // Appended ids are the same inside and outside.
         self.pts.push(p);
+        self.ext.push(id as u32);
+        self.int.push(id as u32);
         self.vtet.push(NONE);
         match self.insert_vertex(id as u32, start) {
             Ok(()) => Ok(id as u32),
             Err(existing) => {
                 self.pts.pop();
+                self.ext.pop();
+                self.int.pop();
                 self.vtet.pop();
-                Err(DelaunayError::Duplicate { existing, point: p })
+                Err(DelaunayError::Duplicate {
+                    existing: self.ext[existing as usize],
+                    point: p,
+                })
             }
         }
     }
 
-    /// All points given so far (vertex ids index this; duplicates included).
-    pub fn points(&self) -> &[[f64; 3]] {
-        &self.pts
+    /// Number of points given so far (duplicates included): vertex ids are
+    /// `0..num_points()`.
+    pub fn num_points(&self) -> usize {
+        self.pts.len()
+    }
+
+    /// Coordinates of vertex `id` (as given to `new` or `insert`).
+    pub fn point(&self, id: u32) -> [f64; 3] {
+        self.pts[self.int[id as usize] as usize]
     }
 
     /// `(duplicate_index, kept_index)` pairs skipped by [`Delaunay3::new`].
@@ -250,17 +309,19 @@ impl Delaunay3 {
         self.tv
             .iter()
             .filter(|v| v[0] != DEAD && !v.contains(&INF))
-            .copied()
+            .map(|v| v.map(|x| self.ext[x as usize]))
     }
 
     /// Whether the triangle `f` (vertex ids, any order) is a face of some
     /// finite tet. Costs O(number of tets around `f[0]`).
     pub fn has_face(&self, f: [u32; 3]) -> bool {
-        let Some(&t0) = self.vtet.get(f[0] as usize) else {
-            return false;
-        };
         let n = self.pts.len() as u32;
-        if t0 == NONE || f.iter().any(|&x| x >= n) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+        if f.iter().any(|&x| x >= n) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+            return false;
+        }
+        let f = f.map(|x| self.int[x as usize]);
+        let t0 = self.vtet[f[0] as usize];
+        if t0 == NONE {
             return false;
         }
         // Depth-first search over the tets around vertex f[0].
@@ -293,7 +354,7 @@ impl Delaunay3 {
         for (t, v) in self.tv.iter().enumerate() {
             if v[0] != DEAD && !v.contains(&INF) {
                 map[t] = tets.len() as u32;
-                tets.push(*v);
+                tets.push(v.map(|x| self.ext[x as usize]));
             }
         }
         let mut neighbours = Vec::with_capacity(tets.len());
@@ -324,6 +385,12 @@ impl Delaunay3 {
             let mut w = v;
             w[i] = INF;
             w.swap((i + 1) & 3, (i + 2) & 3);
+            // Move INF to position 3 by an even permutation (two swaps).
+            let k = w.iter().position(|&x| x == INF).unwrap();
+            if k != 3 {
+                w.swap(k, 3);
+                w.swap(0, 1);
+            }
             tets.push(w);
         }
         let face = |w: &[u32; 4], i: usize| {
@@ -358,66 +425,62 @@ impl Delaunay3 {
         &self.pts[v as usize]
     }
 
-    /// Orientation of tet `v` with vertex `i` replaced by `p` (`v` finite
-    /// except possibly at `i`): `> 0` iff `p` is on the same side of face `i`
-    /// as a point that makes `v` positive.
+    /// Orientation of tet `v` with vertex `i` replaced by `p` (see
+    /// [`orient_replaced`]).
     #[inline(always)]
     fn orient_replaced(&self, v: &[u32; 4], i: usize, p: &[f64; 3]) -> f64 {
-        let q = |k: usize| if k == i { p } else { self.pt(v[k]) };
-        orient(q(0), q(1), q(2), q(3))
-    }
-
-    fn next_rand(&mut self) -> u32 {
-        // xorshift64: only used to randomise the walk's face order.
-        self.rng ^= self.rng << 13;
-        self.rng ^= self.rng >> 7;
-        self.rng ^= self.rng << 17;
-        self.rng as u32
+        orient_replaced(&self.pts, v, i, p)
     }
 
     /// Finds a tet in conflict with `p`: a finite tet whose closure contains
     /// `p`, or a hull tet whose hull face `p` sees strictly. Or the vertex
     /// equal to `p`.
     fn locate(&mut self, p: &[f64; 3], start: u32) -> Located {
+        let (pts, tv, tn) = (&self.pts[..], &self.tv[..], &self.tn[..]);
         let mut t = start;
-        if let Some(k) = self.tv[t as usize].iter().position(|&x| x == INF) {
-            let v = self.tv[t as usize];
-            if self.orient_replaced(&v, k, p) > 0.0 {
+        if is_hull(&tv[t as usize]) {
+            if orient_replaced(pts, &tv[t as usize], 3, p) > 0.0 {
                 return Located::Tet(t);
             }
-            t = self.tn[t as usize][k] >> 2;
+            t = tn[t as usize][3] >> 2;
         }
         let mut prev = NONE;
+        let mut rng = self.rng;
         // A visibility walk in a (perturbed) Delaunay triangulation cannot
         // cycle (Edelsbrunner's acyclicity theorem) and the random face order
         // makes it terminate on any triangulation with probability 1; the
         // step cap is a guard that falls back to a scan.
-        let cap = 64 + 4 * self.tv.len();
-        for _ in 0..cap {
-            let v = self.tv[t as usize];
-            let r = self.next_rand() as usize;
-            let mut moved = false;
+        let cap = 64 + 4 * tv.len();
+        let mut found = None;
+        'walk: for _ in 0..cap {
+            let v = tv[t as usize];
+            let n = tn[t as usize];
+            // xorshift64: only used to randomise the walk's face order.
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            let r = rng as usize;
             for s in 0..4 {
                 let i = (r + s) & 3;
-                let u = self.tn[t as usize][i] >> 2;
+                let u = n[i] >> 2;
                 if u == prev {
                     continue;
                 }
-                if self.orient_replaced(&v, i, p) < 0.0 {
+                if orient_replaced(pts, &v, i, p) < 0.0 {
                     prev = t;
                     t = u;
-                    moved = true;
-                    break;
+                    if is_hull(&tv[t as usize]) {
+                        found = Some(Located::Tet(t));
+                        break 'walk;
+                    }
+                    continue 'walk;
                 }
             }
-            if !moved {
-                return self.closed_tet(t, p);
-            }
-            if self.tv[t as usize].contains(&INF) {
-                return Located::Tet(t);
-            }
+            found = Some(self.closed_tet(t, p));
+            break;
         }
-        self.locate_by_scan(p)
+        self.rng = rng;
+        found.unwrap_or_else(|| self.locate_by_scan(p))
     }
 
     fn closed_tet(&self, t: u32, p: &[f64; 3]) -> Located {
@@ -432,66 +495,27 @@ impl Delaunay3 {
     /// O(n) fallback of `locate`.
     fn locate_by_scan(&self, p: &[f64; 3]) -> Located {
         for (t, v) in self.tv.iter().enumerate() {
-            if v[0] != DEAD
-                && !v.contains(&INF)
-                && (0..4).all(|i| self.orient_replaced(v, i, p) >= 0.0)
-            {
+            if v[0] != DEAD && !is_hull(v) && (0..4).all(|i| self.orient_replaced(v, i, p) >= 0.0) {
                 return self.closed_tet(t as u32, p);
             }
         }
         for (t, v) in self.tv.iter().enumerate() {
-            if let Some(k) = v.iter().position(|&x| x == INF) {
-                if v[0] != DEAD && self.orient_replaced(v, k, p) > 0.0 {
-                    return Located::Tet(t as u32);
-                }
+            if v[0] != DEAD && is_hull(v) && self.orient_replaced(v, 3, p) > 0.0 {
+                return Located::Tet(t as u32);
             }
         }
         unreachable!("a point is inside the hull or sees a hull face")
     }
 
-    /// Whether `pid` is in conflict with tet `t` (its perturbed circumball,
-    /// or for a hull tet: strictly beyond the hull face, or in the face's
-    /// plane and inside its perturbed circumcircle).
-    #[inline]
-    fn conflict(&self, t: u32, pid: u32) -> bool {
-        let v = self.tv[t as usize];
-        let p = self.pt(pid);
-        if let Some(k) = v.iter().position(|&x| x == INF) {
-            let o = self.orient_replaced(&v, k, p);
-            if o != 0.0 {
-                return o > 0.0;
-            }
-            // p is in the plane of the hull face: inside its circumcircle iff
-            // inside the sphere through the face and any point off the plane,
-            // e.g. the vertex d across the face (the tet is then negative).
-            let l = self.tn[t as usize][k];
-            let d = self.tv[(l >> 2) as usize][(l & 3) as usize];
-            let mut w = v;
-            w[k] = d;
-            let q = |k: usize| self.pt(w[k]);
-            let s = insph(q(0), q(1), q(2), q(3), p);
-            if s != 0.0 {
-                return s < 0.0;
-            }
-            return perturbed_inside(&self.pts, w, -1.0, pid);
-        }
-        let q = |k: usize| self.pt(v[k]);
-        let s = insph(q(0), q(1), q(2), q(3), p);
-        if s != 0.0 {
-            return s > 0.0;
-        }
-        perturbed_inside(&self.pts, v, 1.0, pid)
-    }
-
     /// Bowyer–Watson insertion of vertex `pid` (already in `pts`); walk from
     /// tet `start`. `Err(existing)` if it duplicates a vertex.
     fn insert_vertex(&mut self, pid: u32, start: u32) -> Result<(), u32> {
-        let p = *self.pt(pid);
+        let p = self.pts[pid as usize];
         let t0 = match self.locate(&p, start) {
             Located::Duplicate(x) => return Err(x),
             Located::Tet(t) => t,
         };
-        debug_assert!(self.conflict(t0, pid));
+        debug_assert!(conflict(&self.pts, &self.tv, &self.tn, t0, pid, &p));
         if self.stamp >= (u32::MAX >> 1) - 1 {
             self.mark.iter_mut().for_each(|m| *m = 0);
             self.stamp = 0;
@@ -500,51 +524,47 @@ impl Delaunay3 {
         let (inside, outside) = (2 * self.stamp, 2 * self.stamp + 1);
 
         // Cavity: the connected set of tets in conflict (star-shaped from p).
-        self.cavity.clear();
-        self.boundary.clear();
-        self.stack.clear();
-        self.mark[t0 as usize] = inside;
-        self.cavity.push(t0);
-        self.stack.push(t0);
-        while let Some(t) = self.stack.pop() {
-            for i in 0..4 {
-                let u = self.tn[t as usize][i] >> 2;
-                let m = self.mark[u as usize];
-                if m == inside {
-                    continue;
-                }
-                if m != outside && self.conflict(u, pid) {
-                    self.mark[u as usize] = inside;
-                    self.cavity.push(u);
-                    self.stack.push(u);
-                } else {
-                    self.mark[u as usize] = outside;
-                    self.boundary.push((t, i as u32));
+        // Local slices: the compiler then keeps their bounds in registers.
+        {
+            let (pts, tv, tn) = (&self.pts[..], &self.tv[..], &self.tn[..]);
+            let mark = &mut self.mark[..];
+            let (cavity, boundary, stack) = (&mut self.cavity, &mut self.boundary, &mut self.stack);
+            cavity.clear();
+            boundary.clear();
+            stack.clear();
+            mark[t0 as usize] = inside;
+            cavity.push(t0);
+            stack.push(t0);
+            while let Some(t) = stack.pop() {
+                let n = tn[t as usize];
+                for (i, &l) in n.iter().enumerate() {
+                    let u = l >> 2;
+                    let m = mark[u as usize];
+                    if m == inside {
+                        continue;
+                    }
+                    if m != outside && conflict(pts, tv, tn, u, pid, &p) {
+                        mark[u as usize] = inside;
+                        cavity.push(u);
+                        stack.push(u);
+                    } else {
+                        mark[u as usize] = outside;
+                        boundary.push((t, i as u32));
+                    }
                 }
             }
         }
 
         // New tets: each boundary face joined to p (p replaces the vertex
         // opposite the face, which keeps the orientation since p and that
-        // vertex are on the same side of the face).
+        // vertex are on the same side of the face). Slots: the cavity's,
+        // then freed ones, then new ones.
         self.newtets.clear();
         for &(t, i) in &self.boundary {
             let mut v = self.tv[t as usize];
             v[i as usize] = pid;
-            self.newtets.push((v, i, self.tn[t as usize][i as usize]));
-        }
-        for &t in &self.cavity {
-            if !self.tv[t as usize].contains(&INF) {
-                self.n_finite -= 1;
-            }
-        }
-        self.edges.reset(self.newtets.len());
-        let mut reuse = 0;
-        for k in 0..self.newtets.len() {
-            let (v, i, outer) = self.newtets[k];
-            let id = if reuse < self.cavity.len() {
-                reuse += 1;
-                self.cavity[reuse - 1]
+            let id = if self.newtets.len() < self.cavity.len() {
+                self.cavity[self.newtets.len()]
             } else if let Some(f) = self.free.pop() {
                 f
             } else {
@@ -553,39 +573,58 @@ impl Delaunay3 {
                 self.mark.push(0);
                 (self.tv.len() - 1) as u32
             };
-            let idx = id as usize;
-            self.tv[idx] = v;
-            self.mark[idx] = 0;
-            self.tn[idx][i as usize] = outer;
-            self.tn[(outer >> 2) as usize][(outer & 3) as usize] = 4 * id + i;
-            let finite = !v.contains(&INF);
-            if finite {
-                self.n_finite += 1;
-            }
-            for j in 0..4 {
-                if j != i as usize {
-                    // Face j = p + the edge of the boundary face without v[j].
-                    let (a, b) = other_two(i as usize, j);
-                    let (a, b) = (v[a], v[b]);
-                    let key = if a < b {
-                        (u64::from(a) << 32) | u64::from(b)
-                    } else {
-                        (u64::from(b) << 32) | u64::from(a)
-                    };
-                    if let Some(l) = self.edges.pair(key, 4 * id + j as u32) {
-                        self.tn[idx][j] = l;
-                        self.tn[(l >> 2) as usize][(l & 3) as usize] = 4 * id + j as u32;
-                    }
-                }
-                if v[j] != INF {
-                    self.vtet[v[j] as usize] = id;
-                }
-            }
-            if finite || k == 0 {
-                self.last = id;
+            self.newtets.push((v, i, id));
+        }
+        let reused = self.newtets.len().min(self.cavity.len());
+        for &t in &self.cavity {
+            if !is_hull(&self.tv[t as usize]) {
+                self.n_finite -= 1;
             }
         }
-        for &t in &self.cavity[reuse..] {
+        // Outer links are read before any slot is overwritten.
+        for k in 0..self.newtets.len() {
+            let (t, i) = self.boundary[k];
+            self.boundary[k].0 = self.tn[t as usize][i as usize];
+        }
+        self.edges.reset(self.newtets.len());
+        let (tv, tn, vtet) = (&mut self.tv[..], &mut self.tn[..], &mut self.vtet[..]);
+        let mark = &mut self.mark[..];
+        let track = self.track_vtet;
+        let mut last = self.last;
+        for (k, &(v, i, id)) in self.newtets.iter().enumerate() {
+            let outer = self.boundary[k].0;
+            let idx = id as usize;
+            tv[idx] = v;
+            mark[idx] = 0;
+            tn[idx][i as usize] = outer;
+            tn[(outer >> 2) as usize][(outer & 3) as usize] = 4 * id + i;
+            let finite = !is_hull(&v);
+            if finite {
+                self.n_finite += 1;
+                last = id;
+            }
+            for (j, &(a, b)) in OTHER[i as usize].iter().enumerate() {
+                if j == i as usize {
+                    continue;
+                }
+                // Face j = p + the edge (v[a], v[b]) of the boundary face.
+                let (a, b) = (v[a], v[b]);
+                let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+                if let Some(l) = self.edges.pair(key, 4 * id + j as u32) {
+                    tn[idx][j] = l;
+                    tn[(l >> 2) as usize][(l & 3) as usize] = 4 * id + j as u32;
+                }
+            }
+            if track {
+                for &x in &v {
+                    if x != INF {
+                        vtet[x as usize] = id;
+                    }
+                }
+            }
+        }
+        self.last = last;
+        for &t in &self.cavity[reused..] {
             self.tv[t as usize] = [DEAD; 4];
             self.free.push(t);
         }
@@ -593,24 +632,60 @@ impl Delaunay3 {
     }
 }
 
-/// The two positions of a tet other than `i` and `j` (`i != j`).
+/// Orientation of tet `v` with vertex `i` replaced by `p` (`v` finite
+/// except possibly at `i`): `> 0` iff `p` is on the same side of face `i` as
+/// a point that makes `v` positive.
 #[inline(always)]
-fn other_two(i: usize, j: usize) -> (usize, usize) {
-    let mut r = [0usize; 2];
-    let mut n = 0;
-    for k in 0..4 {
-        if k != i && k != j {
-            r[n] = k;
-            n += 1;
-        }
-    }
-    (r[0], r[1])
+fn orient_replaced(pts: &[[f64; 3]], v: &[u32; 4], i: usize, p: &[f64; 3]) -> f64 {
+    let q = |k: usize| if k == i { p } else { &pts[v[k] as usize] };
+    orient(q(0), q(1), q(2), q(3))
 }
 
-/// First four affinely independent points in `order`, or `None` if all points
-/// are coplanar (exact tests).
-fn initial_tet(pts: &[[f64; 3]], order: &[u32]) -> Option<[u32; 4]> {
+/// Whether point `p` (vertex id `pid`) is in conflict with tet `t`: inside
+/// its perturbed circumball, or for a hull tet: strictly beyond the hull
+/// face, or in the face's plane and inside its perturbed circumcircle.
+#[inline(always)]
+fn conflict(
+    pts: &[[f64; 3]],
+    tv: &[[u32; 4]],
+    tn: &[[u32; 4]],
+    t: u32,
+    pid: u32,
+    p: &[f64; 3],
+) -> bool {
+    let v = tv[t as usize];
+    if is_hull(&v) {
+        let o = orient_replaced(pts, &v, 3, p);
+        if o != 0.0 {
+            return o > 0.0;
+        }
+        // p is in the plane of the hull face: inside its circumcircle iff
+        // inside the sphere through the face and any point off the plane,
+        // e.g. the vertex d across the face (the tet is then negative).
+        let l = tn[t as usize][3];
+        let d = tv[(l >> 2) as usize][(l & 3) as usize];
+        let mut w = v;
+        w[3] = d;
+        let q = |k: usize| &pts[w[k] as usize];
+        let s = insph(q(0), q(1), q(2), q(3), p);
+        if s != 0.0 {
+            return s < 0.0;
+        }
+        return perturbed_inside(pts, w, -1.0, pid);
+    }
+    let q = |k: usize| &pts[v[k] as usize];
+    let s = insph(q(0), q(1), q(2), q(3), p);
+    if s != 0.0 {
+        return s > 0.0;
+    }
+    perturbed_inside(pts, v, 1.0, pid)
+}
+
+/// First four affinely independent points of `pts` (as ids), or `None` if all
+/// points are coplanar (exact tests).
+fn initial_tet(pts: &[[f64; 3]]) -> Option<[u32; 4]> {
     let p = |i: u32| &pts[i as usize];
+    let order: Vec<u32> = (0..pts.len() as u32).collect();
     let a = order[0];
     let b = *order.iter().find(|&&i| p(i) != p(a))?;
     let collinear = |i: u32| {
@@ -631,11 +706,12 @@ fn initial_tet(pts: &[[f64; 3]], order: &[u32]) -> Option<[u32; 4]> {
 
 /// Open-addressing map from cavity-boundary edges to the new-tet face that
 /// first claimed them; cleared in O(1) per insertion by a generation counter.
+/// Why not `HashMap`: it would be cleared (or reallocated) on every insertion
+/// and hashes with SipHash; this is one cache-friendly array.
 #[derive(Debug, Clone, Default)]
 struct EdgeTable {
-    keys: Vec<u64>,
-    vals: Vec<u32>,
-    gens: Vec<u32>,
+    /// `(key, generation, value)`.
+    slots: Vec<(u64, u32, u32)>,
     gen: u32,
     shift: u32,
 }
@@ -644,16 +720,14 @@ impl EdgeTable {
     /// Prepares for a cavity with `faces` boundary faces (3·faces/2 edges).
     fn reset(&mut self, faces: usize) {
         let need = (faces * 6).next_power_of_two().max(256);
-        if need > self.keys.len() {
-            self.keys = vec![0; need];
-            self.vals = vec![0; need];
-            self.gens = vec![0; need];
+        if need > self.slots.len() {
+            self.slots = vec![(0, 0, 0); need];
             self.gen = 0;
             self.shift = 64 - need.trailing_zeros();
         }
         self.gen = self.gen.wrapping_add(1);
         if self.gen == 0 {
-            self.gens.iter_mut().for_each(|g| *g = 0);
+            self.slots.iter_mut().for_each(|s| s.1 = 0);
             self.gen = 1;
         }
     }
@@ -662,17 +736,16 @@ impl EdgeTable {
     /// stores `val` under it.
     #[inline]
     fn pair(&mut self, key: u64, val: u32) -> Option<u32> {
-        let mask = self.keys.len() - 1;
+        let mask = self.slots.len() - 1;
         let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize;
         loop {
-            if self.gens[h] != self.gen {
-                self.gens[h] = self.gen;
-                self.keys[h] = key;
-                self.vals[h] = val;
+            let s = &mut self.slots[h];
+            if s.1 != self.gen {
+                *s = (key, self.gen, val);
                 return None;
             }
-            if self.keys[h] == key {
-                return Some(self.vals[h]);
+            if s.0 == key {
+                return Some(s.2);
             }
             h = (h + 1) & mask;
         }

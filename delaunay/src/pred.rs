@@ -30,10 +30,60 @@ fn c(p: &[f64; 3]) -> Coord3D<f64> {
     }
 }
 
+/// Shewchuk's machine epsilon (half an ulp of 1).
+const EPS: f64 = f64::EPSILON / 2.0;
+/// Shewchuk's error-bound coefficients of the floating-point stage.
+const O3D_A: f64 = (7.0 + 56.0 * EPS) * EPS;
+const ISP_A: f64 = (16.0 + 224.0 * EPS) * EPS;
+/// Margin on the static bounds for the rounding of `m^k` itself.
+const MARGIN: f64 = 1.0 + 1e-9;
+/// Outside this range of coordinate differences the static bounds could
+/// underflow or overflow: always take the `robust` path.
+const M_MIN: f64 = 1e-50;
+const M_MAX: f64 = 1e50;
+
+// Why a filter of our own in front of `robust`: `robust` computes the exact
+// "permanent" error bound on every call, as many flops as the determinant.
+// Bounding that permanent by a power of the largest coordinate difference m
+// (each entry is at most m in magnitude) costs a few `max`es, and is a valid
+// *larger* bound, so whenever our test passes `robust`'s first stage would
+// pass too and return the same determinant sign. Otherwise we call `robust`,
+// which is exact.
+
+/// `max` that compiles to one instruction (inputs are never NaN here; a NaN
+/// would only make the filter fail and fall back to `robust`).
+#[inline(always)]
+fn fmax(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
 /// Exact sign of six times the signed volume of `(a, b, c, d)`: `> 0` iff
 /// right-handed, `0` iff coplanar. (The magnitude is only approximate.)
 #[inline(always)]
 pub fn orient(a: &[f64; 3], b: &[f64; 3], cc: &[f64; 3], d: &[f64; 3]) -> f64 {
+    let (adx, ady, adz) = (a[0] - d[0], a[1] - d[1], a[2] - d[2]);
+    let (bdx, bdy, bdz) = (b[0] - d[0], b[1] - d[1], b[2] - d[2]);
+    let (cdx, cdy, cdz) = (cc[0] - d[0], cc[1] - d[1], cc[2] - d[2]);
+    // Shewchuk's orient3d expansion (same evaluation order as his stage A).
+    let det = adz * (bdx * cdy - cdx * bdy)
+        + bdz * (cdx * ady - adx * cdy)
+        + cdz * (adx * bdy - bdx * ady);
+    let m = fmax(
+        fmax(fmax(adx.abs(), ady.abs()), fmax(adz.abs(), bdx.abs())),
+        fmax(
+            fmax(bdy.abs(), bdz.abs()),
+            fmax(cdx.abs(), fmax(cdy.abs(), cdz.abs())),
+        ),
+    );
+    // Permanent = sum of 3 terms |z|(|xy| + |xy|) <= 6 m^3.
+    let bound = O3D_A * 6.0 * m * m * m * MARGIN;
+    if det.abs() > bound && m > M_MIN && m < M_MAX {
+        return -det;
+    }
     -orient3d(c(a), c(b), c(cc), c(d))
 }
 
@@ -42,6 +92,42 @@ pub fn orient(a: &[f64; 3], b: &[f64; 3], cc: &[f64; 3], d: &[f64; 3]) -> f64 {
 /// tetrahedron the sign is reversed.
 #[inline(always)]
 pub fn insph(a: &[f64; 3], b: &[f64; 3], cc: &[f64; 3], d: &[f64; 3], e: &[f64; 3]) -> f64 {
+    let (aex, aey, aez) = (a[0] - e[0], a[1] - e[1], a[2] - e[2]);
+    let (bex, bey, bez) = (b[0] - e[0], b[1] - e[1], b[2] - e[2]);
+    let (cex, cey, cez) = (cc[0] - e[0], cc[1] - e[1], cc[2] - e[2]);
+    let (dex, dey, dez) = (d[0] - e[0], d[1] - e[1], d[2] - e[2]);
+    // Shewchuk's insphere expansion (same evaluation order as his stage A).
+    let ab = aex * bey - bex * aey;
+    let bc = bex * cey - cex * bey;
+    let cd = cex * dey - dex * cey;
+    let da = dex * aey - aex * dey;
+    let ac = aex * cey - cex * aey;
+    let bd = bex * dey - dex * bey;
+    let abc = aez * bc - bez * ac + cez * ab;
+    let bcd = bez * cd - cez * bd + dez * bc;
+    let cda = cez * da + dez * ac + aez * cd;
+    let dab = dez * ab + aez * bd + bez * da;
+    let alift = aex * aex + aey * aey + aez * aez;
+    let blift = bex * bex + bey * bey + bez * bez;
+    let clift = cex * cex + cey * cey + cez * cez;
+    let dlift = dex * dex + dey * dey + dez * dez;
+    let det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+    let m = fmax(
+        fmax(
+            fmax(aex.abs(), fmax(aey.abs(), aez.abs())),
+            fmax(bex.abs(), fmax(bey.abs(), bez.abs())),
+        ),
+        fmax(
+            fmax(cex.abs(), fmax(cey.abs(), cez.abs())),
+            fmax(dex.abs(), fmax(dey.abs(), dez.abs())),
+        ),
+    );
+    // Permanent = sum of 4 terms lift·(3 terms |z|(|xy| + |xy|)) <= 4·3m²·6m³.
+    let m2 = m * m;
+    let bound = ISP_A * 72.0 * m2 * m2 * m * MARGIN;
+    if det.abs() > bound && m > M_MIN && m < M_MAX {
+        return -det;
+    }
     -insphere(c(a), c(b), c(cc), c(d), c(e))
 }
 
@@ -97,6 +183,49 @@ pub fn perturbed_inside(pts: &[[f64; 3]], tet: [u32; 4], tet_sign: f64, pid: u32
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn filtered_predicates_have_the_signs_of_robust() {
+        // Random, lattice (many exact zeros) and nearly degenerate inputs.
+        let mut s = 99u64;
+        let mut u = || (crate::sort::splitmix(&mut s) >> 11) as f64 / (1u64 << 53) as f64;
+        for k in 0..200_000 {
+            let mut p: [[f64; 3]; 5] = [[0.0; 3]; 5];
+            for q in &mut p {
+                *q = match k % 4 {
+                    0 => [u(), u(), u()],
+                    1 => [
+                        (u() * 4.0).floor(),
+                        (u() * 4.0).floor(),
+                        (u() * 4.0).floor(),
+                    ],
+                    2 => [1e6 + u() * 1e-9, 1e6 + u() * 1e-9, u() * 1e-9],
+                    _ => [u() * 1e-30, u() * 1e-30, u() * 1e-30],
+                };
+            }
+            if k % 8 == 3 {
+                // Exactly coplanar: p3 = p0 + (p1 - p0) on the same line.
+                p[3] = [
+                    2.0 * p[1][0] - p[0][0],
+                    2.0 * p[1][1] - p[0][1],
+                    2.0 * p[1][2] - p[0][2],
+                ];
+            }
+            let [a, b, cc, d, e] = p;
+            let o = orient(&a, &b, &cc, &d);
+            let r = -orient3d(c(&a), c(&b), c(&cc), c(&d));
+            assert_eq!(
+                o.signum() * (o != 0.0) as i32 as f64,
+                r.signum() * (r != 0.0) as i32 as f64
+            );
+            let i = insph(&a, &b, &cc, &d, &e);
+            let r = -insphere(c(&a), c(&b), c(&cc), c(&d), c(&e));
+            assert_eq!(
+                i.signum() * (i != 0.0) as i32 as f64,
+                r.signum() * (r != 0.0) as i32 as f64
+            );
+        }
+    }
 
     #[test]
     fn right_handed_unit_tet_is_positive_and_contains_its_centroid() {

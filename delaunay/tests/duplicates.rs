@@ -62,7 +62,7 @@ fn inserting_an_existing_point_is_an_error_and_changes_nothing() {
             point: pts[42]
         }
     );
-    assert_eq!(d.points().len(), pts.len());
+    assert_eq!(d.num_points(), pts.len());
     assert_eq!(d.tetrahedralization(), before);
     // A new point still gets the next index.
     assert_eq!(
