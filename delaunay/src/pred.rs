@@ -84,6 +84,15 @@ pub fn orient(a: &[f64; 3], b: &[f64; 3], cc: &[f64; 3], d: &[f64; 3]) -> f64 {
     if det.abs() > bound && m > M_MIN && m < M_MAX {
         return -det;
     }
+    let mut q = [[0i64; 3]; 4];
+    if grid_diffs(&[a, b, cc], d, 40, &mut q) {
+        let w = |k: usize| q[k].map(i128::from);
+        let (a, b, c) = (w(0), w(1), w(2));
+        let det = a[2] * (b[0] * c[1] - c[0] * b[1])
+            + b[2] * (c[0] * a[1] - a[0] * c[1])
+            + c[2] * (a[0] * b[1] - b[0] * a[1]);
+        return -(det.signum() as f64);
+    }
     -orient3d(c(a), c(b), c(cc), c(d))
 }
 
@@ -128,7 +137,97 @@ pub fn insph(a: &[f64; 3], b: &[f64; 3], cc: &[f64; 3], d: &[f64; 3], e: &[f64; 
     if det.abs() > bound && m > M_MIN && m < M_MAX {
         return -det;
     }
+    let mut q = [[0i64; 3]; 4];
+    if grid_diffs(&[a, b, cc, d], e, 23, &mut q) {
+        let w = |k: usize| q[k].map(i128::from);
+        let (a, b, c, d) = (w(0), w(1), w(2), w(3));
+        let ab = a[0] * b[1] - b[0] * a[1];
+        let bc = b[0] * c[1] - c[0] * b[1];
+        let cd = c[0] * d[1] - d[0] * c[1];
+        let da = d[0] * a[1] - a[0] * d[1];
+        let ac = a[0] * c[1] - c[0] * a[1];
+        let bd = b[0] * d[1] - d[0] * b[1];
+        let abc = a[2] * bc - b[2] * ac + c[2] * ab;
+        let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
+        let cda = c[2] * da + d[2] * ac + a[2] * cd;
+        let dab = d[2] * ab + a[2] * bd + b[2] * da;
+        let lift = |x: [i128; 3]| x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+        let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
+        return -(det.signum() as f64);
+    }
     -insphere(c(a), c(b), c(cc), c(d), c(e))
+}
+
+/// Exact integer differences `others[k] - base`, divided by their common
+/// power of two, if every coordinate is on the dyadic grid of spacing
+/// `ulp(largest coordinate)` and the reduced differences are below
+/// `2^bits` in magnitude. Then a determinant of degree `deg` in them with
+/// `deg * bits + 7 < 127` is exact in `i128` and has the sign of the real one
+/// (the differences are the real ones times a positive power of two).
+///
+/// Why: lattice inputs (cubic, FCC, grids) make most predicates exactly zero;
+/// `robust` proves a zero only in its last, expansion-arithmetic stage, which
+/// zero-fills ~20 KB of stack per call. Small integers do it in ~60 flops.
+#[inline(never)]
+fn grid_diffs(others: &[&[f64; 3]], base: &[f64; 3], bits: u32, out: &mut [[i64; 3]; 4]) -> bool {
+    let mut mx = base[0].abs().max(base[1].abs()).max(base[2].abs());
+    for o in others {
+        mx = mx.max(o[0].abs()).max(o[1].abs()).max(o[2].abs());
+    }
+    if !(mx >= f64::MIN_POSITIVE && mx < 1e300) {
+        return false;
+    }
+    // mx = f · 2^e, f in [1, 2): scale all coordinates by 2^(52 - e) so that
+    // they are below 2^53; they must then be integers.
+    let e = ((mx.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+    let s = 52 - e;
+    if !(-1000..=1000).contains(&s) {
+        return false;
+    }
+    let scale = |x: f64| -> Option<i64> {
+        // Multiply by 2^s in two exact steps (each factor a normal power of two).
+        let h = s / 2;
+        let y = x
+            * f64::from_bits(((1023 + h) as u64) << 52)
+            * f64::from_bits(((1023 + s - h) as u64) << 52);
+        // |y| < 2^53 here, so the i64 round trip is exact iff y is an integer
+        // (and avoids a libm `trunc` call on targets without SSE4.1).
+        let i = y as i64;
+        (i as f64 == y).then_some(i)
+    };
+    let mut bi = [0i64; 3];
+    for k in 0..3 {
+        match scale(base[k]) {
+            Some(v) => bi[k] = v,
+            None => return false,
+        }
+    }
+    let mut tz = 64;
+    for (o, row) in others.iter().zip(out.iter_mut()) {
+        for k in 0..3 {
+            match scale(o[k]) {
+                Some(v) => {
+                    row[k] = v - bi[k];
+                    if row[k] != 0 {
+                        tz = tz.min(row[k].trailing_zeros());
+                    }
+                }
+                None => return false,
+            }
+        }
+    }
+    let lim = 1i64 << bits;
+    for row in out.iter_mut().take(others.len()) {
+        for x in row.iter_mut() {
+            if tz < 64 {
+                *x >>= tz;
+            }
+            if x.abs() >= lim {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Lexicographic (x, y, z) order: the perturbation rank.
@@ -192,7 +291,7 @@ mod tests {
         for k in 0..200_000 {
             let mut p: [[f64; 3]; 5] = [[0.0; 3]; 5];
             for q in &mut p {
-                *q = match k % 4 {
+                *q = match k % 6 {
                     0 => [u(), u(), u()],
                     1 => [
                         (u() * 4.0).floor(),
@@ -200,7 +299,8 @@ mod tests {
                         (u() * 4.0).floor(),
                     ],
                     2 => [1e6 + u() * 1e-9, 1e6 + u() * 1e-9, u() * 1e-9],
-                    _ => [u() * 1e-30, u() * 1e-30, u() * 1e-30],
+                    3 => [u() * 1e-30, u() * 1e-30, u() * 1e-30],
+                    _ => [(u() * 3.0).floor() * 1e-3, (u() * 3.0).floor(), 2.0],
                 };
             }
             if k % 8 == 3 {
@@ -225,6 +325,39 @@ mod tests {
                 r.signum() * (r != 0.0) as i32 as f64
             );
         }
+    }
+
+    #[test]
+    fn grid_path_takes_lattices_and_leaves_random_coordinates_to_robust() {
+        let mut q = [[0i64; 3]; 4];
+        let l = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.0, 2.0, 0.0],
+            [0.0, 0.0, 2.0],
+        ];
+        assert!(grid_diffs(&[&l[0], &l[1], &l[2]], &l[3], 23, &mut q));
+        assert_eq!(q[0], [0, 0, -1]);
+        let off = [
+            [1e6, 0.0, 0.0],
+            [1e6 + 1.0, 0.5, 0.0],
+            [1e6, 0.0, 1.0],
+            [1e6, 1.0, 0.0],
+        ];
+        assert!(grid_diffs(
+            &[&off[0], &off[1], &off[2]],
+            &off[3],
+            23,
+            &mut q
+        ));
+        assert_eq!(q[1], [2, -1, 0]);
+        let r = [
+            [0.1, 0.2, 0.3],
+            [0.4, 0.5, 0.6],
+            [0.7, 0.8, 0.9],
+            [0.0, 0.0, 0.0],
+        ];
+        assert!(!grid_diffs(&[&r[0], &r[1], &r[2]], &r[3], 23, &mut q));
     }
 
     #[test]
