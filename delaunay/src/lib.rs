@@ -5,9 +5,11 @@
 //! tetrahedron), in BRIO + Hilbert order, on flat arrays. Predicates are exact
 //! (Shewchuk's adaptive `orient3d`/`insphere` from the `robust` crate) and
 //! `insphere == 0` ties are broken by a symbolic perturbation of the lifting
-//! map (see [`pred`](crate) docs in `src/pred.rs`), so degenerate inputs
-//! (lattices, cospherical and coplanar sets) give a valid triangulation of
-//! the convex hull, and the result is the same for every insertion order.
+//! map (points ranked lexicographically; see `src/pred.rs`), so degenerate
+//! inputs (lattices, cospherical and coplanar sets) give a valid triangulation
+//! of the convex hull, and the result (as a set of tets) is the same for every
+//! insertion order: it is the unique Delaunay triangulation of the perturbed
+//! points.
 //!
 //! Why written here: the `delaunay` crate takes ~56 s for 7,500 points and
 //! `spade` is 2D only; the volume mesher needs ≥ 1 M tets/s and incremental
@@ -24,7 +26,8 @@
 //!   every distinct point is a vertex; no circumsphere has a point strictly
 //!   inside (points *on* a circumsphere are resolved by the perturbation).
 //! - `duplicates` lists `(index, kept_index)` for every input point equal to
-//!   an earlier-kept one; such points are in no tet.
+//!   another, kept one (which copy is kept follows the internal insertion
+//!   order); such points are in no tet.
 //!
 //! Limits: up to 2^30 tetrahedra (≈ 1.6·10^8 points) because neighbour links
 //! pack `4 * tet + face` into a `u32`; coordinates must be finite and, for the

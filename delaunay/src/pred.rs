@@ -174,7 +174,7 @@ fn grid_diffs(others: &[&[f64; 3]], base: &[f64; 3], bits: u32, out: &mut [[i64;
     for o in others {
         mx = mx.max(o[0].abs()).max(o[1].abs()).max(o[2].abs());
     }
-    if !(mx >= f64::MIN_POSITIVE && mx < 1e300) {
+    if !(f64::MIN_POSITIVE..1e300).contains(&mx) {
         return false;
     }
     // mx = f · 2^e, f in [1, 2): scale all coordinates by 2^(52 - e) so that
