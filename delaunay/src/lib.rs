@@ -164,6 +164,12 @@ pub struct Delaunay3 {
     edges: EdgeTable,
 }
 
+/// Why `insert_vertex` did nothing.
+enum Fail {
+    Duplicate(u32),
+    TooLarge,
+}
+
 enum Located {
     Tet(u32),
     Duplicate(u32),
@@ -223,11 +229,12 @@ impl Delaunay3 {
             if first.contains(&i) {
                 continue;
             }
-            if d.tv.len() + 64 > MAX_TETS {
-                return Err(DelaunayError::TooLarge(n));
-            }
-            if let Err(kept) = d.insert_vertex(i, d.last) {
-                d.dups.push((d.ext[i as usize], d.ext[kept as usize]));
+            match d.insert_vertex(i, d.last) {
+                Ok(()) => {}
+                Err(Fail::Duplicate(kept)) => {
+                    d.dups.push((d.ext[i as usize], d.ext[kept as usize]))
+                }
+                Err(Fail::TooLarge) => return Err(DelaunayError::TooLarge(n)),
             }
         }
         for (t, v) in d.tv.iter().enumerate() {
@@ -258,7 +265,7 @@ impl Delaunay3 {
                 point: p,
             });
         }
-        if id >= (u32::MAX - 2) as usize || self.tv.len() + 64 > MAX_TETS {
+        if id >= (u32::MAX - 2) as usize {
             return Err(DelaunayError::TooLarge(id));
         }
         let start = hint
@@ -271,18 +278,20 @@ impl Delaunay3 {
         self.ext.push(id as u32);
         self.int.push(id as u32);
         self.vtet.push(NONE);
-        match self.insert_vertex(id as u32, start) {
+        let r = self.insert_vertex(id as u32, start);
+        if r.is_err() {
+            self.pts.pop();
+            self.ext.pop();
+            self.int.pop();
+            self.vtet.pop();
+        }
+        match r {
             Ok(()) => Ok(id as u32),
-            Err(existing) => {
-                self.pts.pop();
-                self.ext.pop();
-                self.int.pop();
-                self.vtet.pop();
-                Err(DelaunayError::Duplicate {
-                    existing: self.ext[existing as usize],
-                    point: p,
-                })
-            }
+            Err(Fail::Duplicate(existing)) => Err(DelaunayError::Duplicate {
+                existing: self.ext[existing as usize],
+                point: p,
+            }),
+            Err(Fail::TooLarge) => Err(DelaunayError::TooLarge(id)),
         }
     }
 
@@ -511,11 +520,12 @@ impl Delaunay3 {
     }
 
     /// Bowyer–Watson insertion of vertex `pid` (already in `pts`); walk from
-    /// tet `start`. `Err(existing)` if it duplicates a vertex.
-    fn insert_vertex(&mut self, pid: u32, start: u32) -> Result<(), u32> {
+    /// tet `start`. Fails (changing nothing) if it duplicates a vertex or
+    /// the tets would no longer fit the `4 * tet + face` links.
+    fn insert_vertex(&mut self, pid: u32, start: u32) -> Result<(), Fail> {
         let p = self.pts[pid as usize];
         let t0 = match self.locate(&p, start) {
-            Located::Duplicate(x) => return Err(x),
+            Located::Duplicate(x) => return Err(Fail::Duplicate(x)),
             Located::Tet(t) => t,
         };
         debug_assert!(conflict(&self.pts, &self.tv, &self.tn, t0, pid, &p));
@@ -562,6 +572,9 @@ impl Delaunay3 {
         // opposite the face, which keeps the orientation since p and that
         // vertex are on the same side of the face). Slots: the cavity's,
         // then freed ones, then new ones.
+        if self.tv.len() + self.boundary.len() > MAX_TETS {
+            return Err(Fail::TooLarge);
+        }
         self.newtets.clear();
         for &(t, i) in &self.boundary {
             let mut v = self.tv[t as usize];

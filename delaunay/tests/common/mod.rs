@@ -102,11 +102,8 @@ pub fn check(
         vol += volume(p(v[0]), p(v[1]), p(v[2]), p(v[3]));
     }
     // Every distinct point is a vertex.
-    for i in 0..n {
-        assert!(
-            used[i] || dup_set.contains(&(i as u32)),
-            "point {i} is in no tet"
-        );
+    for (i, &u) in used.iter().enumerate() {
+        assert!(u || dup_set.contains(&(i as u32)), "point {i} is in no tet");
     }
     // Faces: each shared by at most two tets, consistent with the neighbours.
     let face = |v: &[u32; 4], i: usize| {
