@@ -25,14 +25,29 @@
 
 use std::sync::Arc;
 
-use crate::geom::{SurfaceDerivs, P3};
+use crate::geom::{Surface, SurfaceDerivs, P3, V3};
 use crate::model::Model;
 use crate::spacing::{Spacing, SpacingQuery};
 
-/// Curvature of a surface point: the larger principal curvature in absolute
-/// value, from the first and second fundamental forms. `None` at a singular
-/// point (S_u × S_v = 0).
-pub fn max_principal_curvature(s: &SurfaceDerivs) -> Option<f64> {
+/// Principal curvatures and directions at a surface point (thesis eq.
+/// 5.1.2 uses ρ = 1/max(|κ1|, |κ2|)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Principal {
+    /// Unit normal S_u × S_v / |S_u × S_v|.
+    pub normal: V3,
+    /// Principal curvatures (sign relative to `normal`), |k1| ≥ |k2|, in
+    /// 1/model units.
+    pub k1: f64,
+    pub k2: f64,
+    /// Unit principal directions of k1 and k2; `dir2 = normal × dir1`. At
+    /// an umbilic (k1 = k2) dir1 is along S_u.
+    pub dir1: V3,
+    pub dir2: V3,
+}
+
+/// Principal curvatures and directions from the first and second
+/// fundamental forms. `None` at a singular point (S_u × S_v = 0).
+pub fn principal_curvatures(s: &SurfaceDerivs) -> Option<Principal> {
     let n = s.su.cross(&s.sv);
     let nn = n.norm();
     if !(nn > 0.0) {
@@ -48,7 +63,91 @@ pub fn max_principal_curvature(s: &SurfaceDerivs) -> Option<f64> {
     let h = (e * nn2 - 2.0 * f * m + g * l) / (2.0 * det);
     let k = (l * nn2 - m * m) / det;
     let disc = (h * h - k).max(0.0).sqrt();
-    Some((h + disc).abs().max((h - disc).abs()))
+    let (k1, k2) = if (h + disc).abs() >= (h - disc).abs() {
+        (h + disc, h - disc)
+    } else {
+        (h - disc, h + disc)
+    };
+    // eigenvector (a, b) of (II − k1 I): the longer of the two rows' normals
+    let r1 = (m - k1 * f, -(l - k1 * e));
+    let r2 = (nn2 - k1 * g, -(m - k1 * f));
+    let (a, b) = if r1.0.hypot(r1.1) >= r2.0.hypot(r2.1) {
+        r1
+    } else {
+        r2
+    };
+    let mut dir1 = s.su * a + s.sv * b;
+    let scale = (e + g).sqrt() * (l.abs() + m.abs() + nn2.abs() + k1.abs() * (e + g));
+    if !(dir1.norm() > 1e-12 * scale.max(f64::MIN_POSITIVE)) {
+        dir1 = s.su; // umbilic: every direction is principal
+    }
+    let dir1 = dir1.normalize();
+    Some(Principal {
+        normal: n,
+        k1,
+        k2,
+        dir1,
+        dir2: n.cross(&dir1),
+    })
+}
+
+/// Curvature of a surface point: the larger principal curvature in absolute
+/// value, from the first and second fundamental forms. `None` at a singular
+/// point (S_u × S_v = 0).
+pub fn max_principal_curvature(s: &SurfaceDerivs) -> Option<f64> {
+    principal_curvatures(s).map(|p| p.k1.abs())
+}
+
+/// Principal curvatures of `surface` at (u,v); at a pole or an apex, those
+/// of a point a hair away towards the middle of the domain (the limit of
+/// the surrounding values). `None` when that is singular too.
+pub fn surface_principal(surface: &dyn Surface, uv: [f64; 2]) -> Option<Principal> {
+    let s = surface.derivs(uv[0], uv[1]);
+    principal_curvatures(&s).or_else(|| {
+        let (u, v) = surface.domain();
+        let mid = [0.5 * (u[0] + u[1]), 0.5 * (v[0] + v[1])];
+        let p = [
+            uv[0] + 1e-6 * (mid[0] - uv[0]),
+            uv[1] + 1e-6 * (mid[1] - uv[1]),
+        ];
+        principal_curvatures(&surface.derivs(p[0], p[1]))
+    })
+}
+
+/// For each edge of the model, the faces it bounds or is embedded in (a
+/// bubble on the edge also sits on them).
+pub fn edge_faces(model: &Model) -> Vec<Vec<u32>> {
+    let mut edge_faces = vec![Vec::new(); model.edges.len()];
+    for (fi, f) in model.faces.iter().enumerate() {
+        for u in f.loops.iter().flat_map(|l| l.edges.iter()) {
+            if let Some(v) = edge_faces.get_mut(u.edge as usize) {
+                if !v.contains(&(fi as u32)) {
+                    v.push(fi as u32);
+                }
+            }
+        }
+        for &e in &f.embedded_edges {
+            if let Some(v) = edge_faces.get_mut(e as usize) {
+                v.push(fi as u32);
+            }
+        }
+    }
+    edge_faces
+}
+
+/// (u,v) on face `fi` of the point at parameter `t` of edge `ei`: from the
+/// pcurve when the model has one, else by inverting the surface.
+pub fn edge_point_uv(model: &Model, fi: u32, ei: u32, t: f64) -> Option<[f64; 2]> {
+    match model.pcurves.get(&(fi, ei)) {
+        Some(pc) => {
+            let q = pc.point(t);
+            Some([q.x, q.y])
+        }
+        None => {
+            let p = model.edges.get(ei as usize)?.curve.point(t);
+            model.faces.get(fi as usize)?.surface.inverse(&p, None)
+        }
+    }
 }
 
 /// Spacing of eq. 5.1.1 for curvature κ, clamped to [d_min, d_max].
@@ -96,21 +195,7 @@ pub struct Curvature {
 
 impl Curvature {
     pub fn new(model: Arc<Model>, eps: f64, d_min: f64, d_max: f64) -> Self {
-        let mut edge_faces = vec![Vec::new(); model.edges.len()];
-        for (fi, f) in model.faces.iter().enumerate() {
-            for u in f.loops.iter().flat_map(|l| l.edges.iter()) {
-                if let Some(v) = edge_faces.get_mut(u.edge as usize) {
-                    if !v.contains(&(fi as u32)) {
-                        v.push(fi as u32);
-                    }
-                }
-            }
-            for &e in &f.embedded_edges {
-                if let Some(v) = edge_faces.get_mut(e as usize) {
-                    v.push(fi as u32);
-                }
-            }
-        }
+        let edge_faces = edge_faces(&model);
         let mut c = Curvature {
             model: model.clone(),
             eps,
@@ -134,24 +219,9 @@ impl Curvature {
         let Some(f) = self.model.faces.get(fi) else {
             return self.d_max;
         };
-        let s = f.surface.derivs(uv[0], uv[1]);
-        match max_principal_curvature(&s) {
-            Some(k) => triangle_spacing(k, self.eps, self.d_min, self.d_max),
-            // a pole or an apex: the curvature of a point a hair away (the
-            // limit of the surrounding values)
-            None => {
-                let (u, v) = f.surface.domain();
-                let mid = [0.5 * (u[0] + u[1]), 0.5 * (v[0] + v[1])];
-                let p = [
-                    uv[0] + 1e-6 * (mid[0] - uv[0]),
-                    uv[1] + 1e-6 * (mid[1] - uv[1]),
-                ];
-                let s = f.surface.derivs(p[0], p[1]);
-                max_principal_curvature(&s)
-                    .map(|k| triangle_spacing(k, self.eps, self.d_min, self.d_max))
-                    .unwrap_or(self.d_min)
-            }
-        }
+        surface_principal(f.surface.as_ref(), uv)
+            .map(|p| triangle_spacing(p.k1.abs(), self.eps, self.d_min, self.d_max))
+            .unwrap_or(self.d_min)
     }
 
     /// Spacing on an edge at parameter t: the curve's, and that of every
@@ -166,16 +236,8 @@ impl Curvature {
             self.d_min,
             self.d_max,
         );
-        let p = e.curve.point(t);
         for &fi in &self.edge_faces[ei] {
-            let uv = match self.model.pcurves.get(&(fi, ei as u32)) {
-                Some(pc) => {
-                    let q = pc.point(t);
-                    Some([q.x, q.y])
-                }
-                None => self.model.faces[fi as usize].surface.inverse(&p, None),
-            };
-            if let Some(uv) = uv {
+            if let Some(uv) = edge_point_uv(&self.model, fi, ei as u32, t) {
                 d = d.min(self.face_spacing(fi as usize, uv));
             }
         }
@@ -183,7 +245,8 @@ impl Curvature {
     }
 }
 
-fn curve_curvature(c: &dyn crate::geom::Curve, t: f64) -> f64 {
+/// Curvature κ = |C' × C''| / |C'|³ of a curve at t (0 where C' = 0).
+pub fn curve_curvature(c: &dyn crate::geom::Curve, t: f64) -> f64 {
     let d1 = c.d1(t);
     let n = d1.norm();
     if !(n > 0.0) {
@@ -249,6 +312,30 @@ mod tests {
         };
         let k = max_principal_curvature(&s).unwrap();
         assert!((k - 1.0 / r).abs() < 1e-7, "{k}");
+    }
+
+    #[test]
+    fn cylinder_principal_directions() {
+        // cylinder of radius 2 about z: S(u, v) = (2 cos u, 2 sin u, v);
+        // |k1| = 1/2 around the axis, k2 = 0 along it
+        let (r, u) = (2.0, 0.7f64);
+        let (c, s) = (u.cos(), u.sin());
+        let d = SurfaceDerivs {
+            p: P3::new(r * c, r * s, 0.3),
+            su: V3::new(-r * s, r * c, 0.0),
+            sv: V3::z(),
+            suu: V3::new(-r * c, -r * s, 0.0),
+            suv: V3::zeros(),
+            svv: V3::zeros(),
+        };
+        let p = principal_curvatures(&d).unwrap();
+        assert!(
+            (p.k1.abs() - 0.5).abs() < 1e-12 && p.k2.abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!((p.dir1.dot(&V3::new(-s, c, 0.0)).abs() - 1.0).abs() < 1e-12);
+        assert!((p.dir2.z.abs() - 1.0).abs() < 1e-12);
+        assert!(p.normal.dot(&p.dir1).abs() < 1e-12);
     }
 
     #[test]

@@ -206,6 +206,38 @@ pub fn read(path: &Path) -> Result<Mesh, IoError> {
     read_as(path, Format::from_path(path)?)
 }
 
+/// Values given per node of a mesh file (MSH `$NodeData`, VTU
+/// `<PointData>`): a target size, an error indicator, a solution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeField {
+    pub name: String,
+    /// Values per node (1 for a scalar).
+    pub components: usize,
+    /// `components` values per node, in the order of [`Mesh::nodes`]; NaN
+    /// for a node the file gives no value.
+    pub values: Vec<f64>,
+}
+
+/// Reads the mesh at `path` with its per-node fields: `$NodeData` of a MSH
+/// file, `<PointData>` of a VTU file (other formats carry none and give an
+/// empty list).
+pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoError> {
+    let format = Format::from_path(path)?;
+    let parse: fn(&[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> = match format {
+        Format::Msh => msh::parse_with_node_data,
+        Format::Vtu => vtu::parse_with_node_data,
+        _ => return read_as(path, format).map(|m| (m, Vec::new())),
+    };
+    let data = fs::read(path).map_err(|source| IoError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if data.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(ParseError::new("the file is empty").with_path(path));
+    }
+    parse(&data).map_err(|e| e.with_path(path))
+}
+
 /// Reads the mesh at `path` in `format`.
 pub fn read_as(path: &Path, format: Format) -> Result<Mesh, IoError> {
     let data = fs::read(path).map_err(|source| IoError::Io {

@@ -31,7 +31,7 @@ use bubblemesh_core::model::EntityRef;
 use bubblemesh_core::P3;
 
 use crate::text::{as_text, cap, clip, coord, parse_at, Text};
-use crate::{complete_entities, entity_table, infer_node_entities, ParseError, Xyz};
+use crate::{complete_entities, entity_table, infer_node_entities, NodeField, ParseError, Xyz};
 
 /// Writes `mesh` as MSH 4.1 ASCII. The mesh must satisfy the [`Mesh`]
 /// invariants (element indices in range; [`crate::write`] checks this).
@@ -225,6 +225,16 @@ pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
 
 /// Parses MSH 4.1 or 2.2 ASCII.
 pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
+    parse_impl(data, false).map(|r| r.0)
+}
+
+/// Parses MSH 4.1 or 2.2 ASCII with the per-node fields of its `$NodeData`
+/// sections (in the order of the file; a name may repeat, e.g. time steps).
+pub fn parse_with_node_data(data: &[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> {
+    parse_impl(data, true)
+}
+
+fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), ParseError> {
     let s = as_text(data);
     let mut t = Text::new(&s, None);
     let first = t.line("$MeshFormat")?;
@@ -269,10 +279,13 @@ pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
             ("Elements", true) => r.elements_41(&mut t)?,
             ("Nodes", false) => r.nodes_22(&mut t)?,
             ("Elements", false) => r.elements_22(&mut t)?,
+            ("NodeData", _) if node_data => r.node_data(&mut t)?,
             _ => skip_section(&mut t, name)?,
         }
     }
-    r.finish()
+    let fields = std::mem::take(&mut r.fields);
+    let mesh = r.finish()?;
+    Ok((mesh, fields))
 }
 
 /// Reads the line closing a section, which must be `$End<name>`.
@@ -326,6 +339,8 @@ struct Reader {
     /// Node tag → index, once `$Nodes` is read.
     map: Option<TagMap>,
     mesh: Mesh,
+    /// `$NodeData` fields (only when asked for).
+    fields: Vec<NodeField>,
 }
 
 enum TagMap {
@@ -586,6 +601,65 @@ impl Reader {
             self.push(&idx, e, true);
         }
         end_section(t, "Elements")
+    }
+
+    /// One `$NodeData` section: string tags (the first is the name), real
+    /// tags, integer tags (the second is the number of components, the
+    /// third the number of values), then `node-tag value...` lines. Nodes
+    /// the section does not list get NaN.
+    fn node_data(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        let n_str: usize = t.num("the number of string tags of $NodeData")?;
+        let mut name = String::new();
+        for k in 0..n_str {
+            let l = t.line("a string tag of $NodeData")?;
+            if k == 0 {
+                name = l.trim().trim_matches('"').to_string();
+            }
+        }
+        let n_real: usize = t.num("the number of real tags of $NodeData")?;
+        for _ in 0..n_real {
+            t.line("a real tag of $NodeData")?;
+        }
+        let n_int: usize = t.num("the number of integer tags of $NodeData")?;
+        let mut ints = Vec::new();
+        for _ in 0..n_int {
+            ints.push(t.num::<i64>("an integer tag of $NodeData")?);
+        }
+        let (Some(&ncomp), Some(&count)) = (ints.get(1), ints.get(2)) else {
+            return Err(t.err(format!(
+                "$NodeData '{name}' needs 3 integer tags (step, components, count)"
+            )));
+        };
+        if !(1..=9).contains(&ncomp) || count < 0 {
+            return Err(t.err(format!(
+                "$NodeData '{name}': {ncomp} components or {count} values is not valid"
+            )));
+        }
+        let nn = self.nodes.len();
+        if self.map.is_none() {
+            return Err(t.err("$NodeData comes before $Nodes"));
+        }
+        let ncomp = ncomp as usize;
+        let mut values = vec![f64::NAN; nn * ncomp];
+        for _ in 0..count {
+            let l = t.line_tokens("a $NodeData line")?;
+            if l.len() < 1 + ncomp {
+                return Err(t.err(format!(
+                    "a $NodeData line needs a node tag and {ncomp} values"
+                )));
+            }
+            let i = self.node_index(l[0], t)? as usize;
+            for c in 0..ncomp {
+                values[i * ncomp + c] = parse_at(l[1 + c], "a $NodeData value", t.lineno())?;
+            }
+        }
+        end_section(t, "NodeData")?;
+        self.fields.push(NodeField {
+            name,
+            components: ncomp,
+            values,
+        });
+        Ok(())
     }
 
     fn finish(self) -> Result<Mesh, ParseError> {

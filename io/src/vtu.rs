@@ -19,7 +19,7 @@ use bubblemesh_core::model::EntityRef;
 use bubblemesh_core::P3;
 
 use crate::text::{as_text, clip};
-use crate::{complete_entities, infer_node_entities, ParseError, Xyz};
+use crate::{complete_entities, infer_node_entities, NodeField, ParseError, Xyz};
 
 /// Writes `mesh` as ASCII VTU. Element indices must be in range.
 pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
@@ -482,6 +482,16 @@ fn entities_of(arrays: &[Array], n: usize) -> Result<Option<Vec<EntityRef>>, Par
 
 /// Parses an ASCII VTU file.
 pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
+    parse_impl(data, false).map(|r| r.0)
+}
+
+/// Parses an ASCII VTU file with its `<PointData>` arrays as node fields
+/// (every array with one value per component per point).
+pub fn parse_with_node_data(data: &[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> {
+    parse_impl(data, true)
+}
+
+fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), ParseError> {
     let s = as_text(data);
     let piece = collect(&s)?;
     let pts_arr = piece
@@ -638,5 +648,27 @@ pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
     }
     infer_node_entities(&mut mesh, &known);
     complete_entities(&mut mesh);
-    Ok(mesh)
+    let mut fields = Vec::new();
+    if node_data {
+        for a in &piece.point_data {
+            let values: Vec<f64> = a.numbers()?;
+            if a.ncomp == 0 || values.len() != np * a.ncomp {
+                return Err(ParseError::at(
+                    a.line,
+                    format!(
+                        "PointData '{}' holds {} values for {np} points of {} components",
+                        a.name,
+                        values.len(),
+                        a.ncomp
+                    ),
+                ));
+            }
+            fields.push(NodeField {
+                name: a.name.to_string(),
+                components: a.ncomp,
+                values,
+            });
+        }
+    }
+    Ok((mesh, fields))
 }
