@@ -37,6 +37,35 @@ fn exactly_cospherical_points_plus_centre_form_a_cone_from_the_centre() {
 }
 
 #[test]
+fn exactly_cospherical_points_alone_are_triangulated_by_the_perturbation() {
+    // No centre: every in-sphere test between these points is a tie, so the
+    // whole triangulation comes from the symbolic perturbation.
+    let pts = integer_sphere(425);
+    let t = tetrahedralize(&pts).unwrap();
+    check(&pts, &t, None, Sphere::Global);
+    // And it is the same for a shuffled input (unique perturbed triangulation).
+    let mut order: Vec<usize> = (0..pts.len()).collect();
+    Rng(5).shuffle(&mut order);
+    let shuffled: Vec<[f64; 3]> = order.iter().map(|&i| pts[i]).collect();
+    let t2 = tetrahedralize(&shuffled).unwrap();
+    let back: Vec<[u32; 4]> = t2
+        .tets
+        .iter()
+        .map(|v| v.map(|x| order[x as usize] as u32))
+        .collect();
+    assert_eq!(canonical(&t.tets), canonical(&back));
+}
+
+#[test]
+fn the_eight_corners_of_a_cube() {
+    let pts = cubic_lattice(2);
+    let t = tetrahedralize(&pts).unwrap();
+    check(&pts, &t, Some(1.0), Sphere::Global);
+    // A cube splits into 5 or 6 tets.
+    assert!(t.tets.len() == 5 || t.tets.len() == 6, "{}", t.tets.len());
+}
+
+#[test]
 fn two_hundred_float_points_on_a_sphere_plus_centre() {
     // Fibonacci sphere: nearly (not exactly) cospherical in floating point.
     let n = 200;
