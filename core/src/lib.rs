@@ -7,7 +7,7 @@
 //! ones; the bubble centres are joined by constrained Delaunay triangulation.
 //!
 //! Meshing goes in the order of dimensions (thesis §3.2.3): vertices, then
-//! edges, then faces (then volumes), each lower-dimensional result fixed while
+//! edges, then faces, then volumes, each lower-dimensional result fixed while
 //! the next dimension is packed.
 //!
 //! Modules follow the thesis's concepts:
@@ -17,9 +17,12 @@
 //! - [`engine`]: stage 1 placement (§4.1), forces (§4.2), dynamics (§4.3–4.4),
 //!   constraints (§4.5), population control (§4.7);
 //! - [`connect`]: constrained Delaunay connection of bubble centres;
+//!   [`connect3d`]: the boundary-conforming Delaunay tetrahedralization of a
+//!   volume's bubbles;
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality.
 
 pub mod connect;
+pub mod connect3d;
 pub mod curvature;
 pub mod engine;
 pub mod geom;

@@ -20,12 +20,24 @@ use super::region::Region;
 pub trait Carrier: Sync {
     /// The entity the bubbles belong to.
     fn entity(&self) -> EntityRef;
-    /// Moves a bubble at `params` by the object-space displacement `dx`.
-    /// Returns the new point and parameters, or `None` when the move would
-    /// leave the entity (the bubble then stays where it is).
-    fn advance(&self, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])>;
+    /// Moves a bubble at `pos` (parameters `params`) by the object-space
+    /// displacement `dx`. Returns the new point and parameters, or `None`
+    /// when the move would leave the entity (the bubble then stays where it
+    /// is).
+    fn advance(&self, pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])>;
     /// Two orthonormal tangent directions at `params` (for angular gaps).
     fn frame(&self, params: [f64; 2]) -> (V3, V3);
+    /// The dimension of the entity the bubbles move in (2 surface, 3
+    /// volume).
+    fn dim(&self) -> u8 {
+        2
+    }
+    /// The part of a velocity the bubble can follow: its projection on the
+    /// tangent plane at `params` (everything, in a volume).
+    fn project(&self, params: [f64; 2], v: &V3) -> V3 {
+        let (t1, t2) = self.frame(params);
+        t1 * v.dot(&t1) + t2 * v.dot(&t2)
+    }
     /// Whether `params` is inside the entity.
     fn contains(&self, params: [f64; 2]) -> bool;
     /// The point at `params`.
@@ -94,7 +106,7 @@ impl Carrier for OnFace<'_> {
     fn entity(&self) -> EntityRef {
         self.entity
     }
-    fn advance(&self, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+    fn advance(&self, _pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
         let dv = self.surface.derivs(params[0], params[1]);
         let uv = if self.degenerate(params, &dv.su, &dv.sv) {
             // near a pole or an apex the first fundamental form is singular:

@@ -337,7 +337,10 @@ fn lift_worst<C: Carrier>(
             for k in 0..8 {
                 let a = k as f64 * std::f64::consts::FRAC_PI_4;
                 let dir = t1 * a.cos() + t2 * a.sin();
-                let Some((p, uv)) = sys.carrier.advance(sys.params[i], &(dir * step)) else {
+                let Some((p, uv)) = sys
+                    .carrier
+                    .advance(&sys.pos[i], sys.params[i], &(dir * step))
+                else {
                     continue;
                 };
                 let w = worst_at(sys, &p, uv);
@@ -429,7 +432,7 @@ fn relax_edges<C: Carrier>(
             let k = 0.5 * nbrs[m].len() as f64 * K0;
             let mut step = f * (OMEGA / k);
             for _attempt in 0..3 {
-                let Some((p, uv)) = sys.carrier.advance(sys.params[i], &step) else {
+                let Some((p, uv)) = sys.carrier.advance(&sys.pos[i], sys.params[i], &step) else {
                     step *= 0.5;
                     continue;
                 };

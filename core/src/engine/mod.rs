@@ -16,10 +16,14 @@ pub mod dynamics;
 pub mod force;
 pub mod grid;
 pub mod improve;
+pub mod odt;
 pub mod placement;
 pub mod population;
 pub mod region;
+pub mod shell;
+pub mod sliver;
 pub mod system;
+pub mod volume;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -138,8 +142,10 @@ pub struct Report {
     pub nodes: usize,
     pub lines: usize,
     pub triangles: usize,
+    pub tetrahedra: usize,
     pub timings: Timings,
     pub faces: Vec<FaceReport>,
+    pub volumes: Vec<volume::VolumeReport>,
 }
 
 /// A meshing failure. Messages name the entity and the reason.
@@ -186,7 +192,7 @@ fn domain_box(s: &dyn crate::geom::Surface) -> ([f64; 2], [f64; 2]) {
     ([u[0], v[0]], [u[1], v[1]])
 }
 
-fn check_spacing(d: f64, point: P3, entity: EntityRef) -> Result<f64, MeshError> {
+pub(crate) fn check_spacing(d: f64, point: P3, entity: EntityRef) -> Result<f64, MeshError> {
     if d.is_finite() && d > 0.0 {
         Ok(d)
     } else {
@@ -217,12 +223,6 @@ pub fn mesh_model(
             model.faces.len(),
             model.volumes.len()
         )));
-    }
-    if dim >= 3 {
-        return Err(MeshError::Unsupported(
-            "volume meshing (--dim 3) is not implemented yet; mesh the boundary with --dim 2"
-                .into(),
-        ));
     }
     let mut mesh = Mesh::default();
     mesh.set_entities_from(model);
@@ -295,11 +295,82 @@ pub fn mesh_model(
             report.faces.push(fr);
         }
     }
+    // closed shells: every volume's face triangles outward (a face shared
+    // by two volumes keeps the first volume's orientation)
+    if dim >= 2 {
+        orient_volume_faces(model, &mut mesh, dim >= 3)?;
+    }
+
+    // 4. volumes
+    if dim >= 3 {
+        // the face nodes are the fixed bubbles of the volumes: their spacing
+        for n in &mesh.nodes[node_d.len()..] {
+            let d = spacing.spacing(&SpacingQuery {
+                point: n.pos,
+                entity: n.entity,
+                params: n.params,
+            });
+            node_d.push(check_spacing(d, n.pos, n.entity)?);
+        }
+        for vi in 0..model.volumes.len() {
+            let e = EntityRef::new(3, vi as u32);
+            let vr = volume::mesh_volume(
+                model,
+                vi,
+                spacing,
+                opts,
+                &mut mesh,
+                &node_d,
+                &mut report.timings,
+            )
+            .map_err(|x| x.within(model.describe(e)))?;
+            report.volumes.push(vr);
+        }
+    }
     report.nodes = mesh.nodes.len();
     report.lines = mesh.lines.len();
     report.triangles = mesh.triangles.len();
+    report.tetrahedra = mesh.tetrahedra.len();
     report.timings.total_s = t_start.elapsed().as_secs_f64();
     Ok((mesh, report))
+}
+
+/// Orients the triangles of each volume's faces outward (the first volume
+/// that claims a face decides). A volume whose faces do not close is an
+/// error when `strict` (volume meshing needs it), else left as meshed.
+fn orient_volume_faces(model: &Model, mesh: &mut Mesh, strict: bool) -> Result<(), MeshError> {
+    let mut done = vec![false; model.faces.len()];
+    for vi in 0..model.volumes.len() {
+        let e = EntityRef::new(3, vi as u32);
+        let oriented = match volume::boundary_of(model, vi, mesh) {
+            Ok(t) => t,
+            Err(err) if strict => return Err(err.within(model.describe(e))),
+            Err(_) => continue,
+        };
+        let by_key: std::collections::HashMap<[u32; 3], [u32; 3]> = oriented
+            .iter()
+            .map(|t| {
+                let mut k = *t;
+                k.sort_unstable();
+                (k, *t)
+            })
+            .collect();
+        let faces: Vec<u32> = model.volumes[vi].faces.clone();
+        for t in mesh.triangles.iter_mut() {
+            if t.entity.dim != 2 || !faces.contains(&t.entity.id) || done[t.entity.id as usize] {
+                continue;
+            }
+            let mut k = t.nodes;
+            k.sort_unstable();
+            if let Some(o) = by_key.get(&k) {
+                t.nodes = *o;
+            }
+        }
+        for f in faces {
+            done[f as usize] = true;
+        }
+    }
+    Ok(())
 }
 
 /// Meshes one edge; returns its node ids from start vertex to end vertex.

@@ -165,7 +165,7 @@ pub fn control<C: Carrier>(
                 break;
             };
             let dir: V3 = t1 * bis.cos() + t2 * bis.sin();
-            let Some((pc, uv)) = sys.carrier.advance(sys.params[i], &(dir * di)) else {
+            let Some((pc, uv)) = sys.carrier.advance(&pi, sys.params[i], &(dir * di)) else {
                 continue;
             };
             let dc = sys.spacing_at(&pc, uv)?;
@@ -242,4 +242,202 @@ fn spot_is_free<C: Carrier>(
         }
     }
     true
+}
+
+/// Volume thresholds (§4.7 for twelve neighbours). A face-centred cubic
+/// packing has 12 tangent neighbours, so both ratios scale by 12/6 from the
+/// surface values: a uniformly compressed FCC patch has E = 12(1 − w), so
+/// [`EXCESS_3D`] deletes below w ≈ 0.88, and a bubble in an octahedral
+/// (tetrahedral) hole has E = 1.76 (1.55); a uniformly stretched patch has
+/// O = 12(3 − 2w), so [`OPEN_3D`] splits above w ≈ 1.17 — the same stable
+/// band as on surfaces.
+pub const EXCESS_3D: f64 = 1.4;
+/// See [`EXCESS_3D`].
+pub const OPEN_3D: f64 = 8.0;
+/// A direction whose nearest neighbour direction is farther than this
+/// angle is a hole (FCC: a missing neighbour leaves a 60° cone; the widest
+/// empty cone of a full FCC shell is 45°, towards an octahedral hole).
+pub const GAP_ANGLE_3D: f64 = 54.0 * std::f64::consts::PI / 180.0;
+/// Below this open ratio a bubble looks for holes around it (a full FCC
+/// shell has 12; only bubbles with a missing neighbour search).
+const SEARCH_3D: f64 = 11.5;
+
+/// Unit directions spread over the sphere (Fibonacci lattice), the
+/// candidate directions of the 3D hole search.
+fn sphere_directions(n: usize) -> Vec<V3> {
+    let ga = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|k| {
+            let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let a = ga * k as f64;
+            V3::new(r * a.cos(), r * a.sin(), z)
+        })
+        .collect()
+}
+
+/// Population control for bubbles in a volume: the rules of [`control`]
+/// with the thresholds for twelve neighbours, and holes found as the
+/// direction farthest from every neighbour (sampled directions refined by
+/// pushing away from the nearest neighbour directions).
+pub fn control_volume<C: Carrier>(
+    sys: &mut System<'_, C>,
+    pairs: &[Pair],
+    grid: &Grid,
+    focus: Option<&[bool]>,
+) -> Result<(usize, usize), MeshError> {
+    let focused = |i: usize| focus.is_none_or(|f| f[i]);
+    let n = sys.n();
+    let nf = sys.n_fixed;
+    let mut deg = vec![0u32; n + 1];
+    for p in pairs {
+        deg[p.i as usize + 1] += 1;
+        deg[p.j as usize + 1] += 1;
+    }
+    for k in 0..n {
+        deg[k + 1] += deg[k];
+    }
+    let mut fill = deg.clone();
+    let mut adj = vec![0u32; deg[n] as usize];
+    for p in pairs {
+        adj[fill[p.i as usize] as usize] = p.j;
+        fill[p.i as usize] += 1;
+        adj[fill[p.j as usize] as usize] = p.i;
+        fill[p.j as usize] += 1;
+    }
+    let mut excess = vec![0.0f64; n];
+    for p in pairs {
+        let o = (1.0 - p.w).max(0.0);
+        excess[p.i as usize] += o;
+        excess[p.j as usize] += o;
+    }
+    let mut cand: Vec<usize> = (nf..n)
+        .filter(|&i| focused(i) && excess[i] > EXCESS_3D)
+        .collect();
+    cand.sort_by(|&a, &b| excess[b].total_cmp(&excess[a]));
+    let mut deleted = vec![false; n];
+    let mut blocked = vec![false; n];
+    let mut to_delete = Vec::new();
+    for i in cand {
+        if blocked[i] {
+            continue;
+        }
+        deleted[i] = true;
+        to_delete.push(i);
+        for &j in &adj[deg[i] as usize..deg[i + 1] as usize] {
+            blocked[j as usize] = true;
+        }
+    }
+
+    let dirs = sphere_directions(96);
+    let cos_gap = GAP_ANGLE_3D.cos();
+    let mut new_bubbles: Vec<(P3, [f64; 2], f64)> = Vec::new();
+    let mut new_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    let cell_h = sys
+        .d
+        .iter()
+        .cloned()
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let key = |p: &P3| [0, 1, 2].map(|k| (p[k] / cell_h).floor() as i64);
+    let mut units: Vec<V3> = Vec::new();
+    for i in 0..n {
+        if deleted[i] || !focused(i) {
+            continue;
+        }
+        let (pi, di) = (sys.pos[i], sys.d[i]);
+        let nbrs = &adj[deg[i] as usize..deg[i + 1] as usize];
+        let open_ratio: f64 = nbrs
+            .iter()
+            .map(|&j| {
+                let j = j as usize;
+                let r = (sys.pos[j] - pi).norm();
+                ((di + 0.5 * sys.d[j] - r) / (0.5 * di)).max(0.0)
+            })
+            .sum();
+        if open_ratio >= SEARCH_3D {
+            continue;
+        }
+        units.clear();
+        units.extend(nbrs.iter().filter_map(|&j| {
+            let v = sys.pos[j as usize] - pi;
+            let r = v.norm();
+            (r > 0.0).then(|| v / r)
+        }));
+        let nearest = |u: &V3| -> (f64, usize) {
+            let mut best = (-2.0, usize::MAX);
+            for (k, w) in units.iter().enumerate() {
+                let c = u.dot(w);
+                if c > best.0 {
+                    best = (c, k);
+                }
+            }
+            best
+        };
+        // candidate directions, emptiest first
+        let mut scored: Vec<(f64, V3)> = dirs.iter().map(|u| (nearest(u).0, *u)).collect();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let is_open = i >= nf && open_ratio < OPEN_3D;
+        for &(_, u0) in scored.iter().take(4) {
+            // refine: step away from the nearest neighbour direction
+            let mut u = u0;
+            for _ in 0..8 {
+                let (c, k) = nearest(&u);
+                if k == usize::MAX || c <= -1.0 {
+                    break;
+                }
+                let w = units[k];
+                let t = u - w * c;
+                let tn = t.norm();
+                if tn < 1e-12 {
+                    break;
+                }
+                let cand = (u + t / tn * 0.1).normalize();
+                if nearest(&cand).0 < c {
+                    u = cand;
+                } else {
+                    break;
+                }
+            }
+            let c = nearest(&u).0;
+            let fit = if c < cos_gap {
+                FIT
+            } else if is_open {
+                FIT_OPEN
+            } else {
+                break;
+            };
+            let Some((pc, uv)) = sys.carrier.advance(&pi, sys.params[i], &(u * di)) else {
+                continue;
+            };
+            let dc = sys.spacing_at(&pc, uv)?;
+            if spot_is_free(
+                sys,
+                grid,
+                &new_bubbles,
+                &new_cells,
+                &key,
+                &pc,
+                dc,
+                cell_h.max(dc),
+                fit,
+            ) {
+                new_cells
+                    .entry(key(&pc))
+                    .or_default()
+                    .push(new_bubbles.len());
+                new_bubbles.push((pc, uv, dc));
+                break;
+            }
+        }
+    }
+    to_delete.sort_unstable_by(|a, b| b.cmp(a));
+    for &i in &to_delete {
+        sys.remove_free(i);
+    }
+    let added = new_bubbles.len();
+    for (p, uv, d) in new_bubbles {
+        sys.push_free(p, uv, d);
+    }
+    Ok((to_delete.len(), added))
 }

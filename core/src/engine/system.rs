@@ -270,7 +270,7 @@ impl<'a, C: Carrier> System<'a, C> {
     /// the entity; returns |Δx|/d, or None when the move would leave the
     /// entity (the bubble stays).
     fn move_bubble(&mut self, i: usize, dx: &V3) -> Option<f64> {
-        let (p, uv) = self.carrier.advance(self.params[i], dx)?;
+        let (p, uv) = self.carrier.advance(&self.pos[i], self.params[i], dx)?;
         let m = (p - self.pos[i]).norm() / self.d[i];
         self.pos[i] = p;
         self.params[i] = uv;
@@ -359,9 +359,8 @@ impl<'a, C: Carrier> System<'a, C> {
                         match self.move_bubble(i, &(v * h)) {
                             Some(m) => {
                                 max_move = max_move.max(m);
-                                let (t1, t2) = self.carrier.frame(self.params[i]);
                                 let nv = v + (f - v * c) * (h / MASS);
-                                self.vel[i] = t1 * nv.dot(&t1) + t2 * nv.dot(&t2);
+                                self.vel[i] = self.carrier.project(self.params[i], &nv);
                             }
                             None => self.vel[i] = V3::zeros(),
                         }
@@ -416,7 +415,11 @@ impl<'a, C: Carrier> System<'a, C> {
                     e
                 });
                 self.pairs(&grid, &mut pairs, near.as_deref());
-                let (del, add) = population::control(self, &pairs, &grid, focus.as_deref())?;
+                let (del, add) = if self.carrier.dim() == 3 {
+                    population::control_volume(self, &pairs, &grid, focus.as_deref())?
+                } else {
+                    population::control(self, &pairs, &grid, focus.as_deref())?
+                };
                 stats.deleted += del;
                 stats.added += add;
 
@@ -484,7 +487,10 @@ impl<'a, C: Carrier> System<'a, C> {
         let set = |sys: &mut Self, s: f64, v: &[V3]| {
             for i in nf..n {
                 let k = i - nf;
-                let (p, uv) = sys.carrier.advance(x0[k].1, &(v[k] * s)).unwrap_or(x0[k]);
+                let (p, uv) = sys
+                    .carrier
+                    .advance(&x0[k].0, x0[k].1, &(v[k] * s))
+                    .unwrap_or(x0[k]);
                 sys.pos[i] = p;
                 sys.params[i] = uv;
             }
@@ -504,7 +510,7 @@ impl<'a, C: Carrier> System<'a, C> {
             let k = i - nf;
             let v = (v0[k] + v2[k] * 2.0 + v3[k] * 2.0 + v4[k]) / 6.0;
             let a = (a1[k] + a2[k] * 2.0 + a3[k] * 2.0 + a4[k]) / 6.0;
-            match self.carrier.advance(x0[k].1, &(v * h)) {
+            match self.carrier.advance(&x0[k].0, x0[k].1, &(v * h)) {
                 Some((p, uv)) => {
                     max_move = max_move.max((p - x0[k].0).norm() / self.d[i]);
                     self.pos[i] = p;

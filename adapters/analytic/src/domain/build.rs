@@ -84,10 +84,14 @@ pub(crate) fn build(spec: &DomainSpec) -> Result<Model, Invalid> {
             ));
         }
     }
-    if spec.face.is_empty() && spec.curve.is_empty() && spec.surface.is_empty() {
+    if spec.face.is_empty()
+        && spec.curve.is_empty()
+        && spec.surface.is_empty()
+        && spec.solid.is_empty()
+    {
         return Err(Invalid::new(
             "",
-            "the file defines nothing to mesh: add at least one [[face]], [[curve]] or [[surface]]",
+            "the file defines nothing to mesh: add at least one [[face]], [[curve]], [[surface]] or [[solid]]",
         ));
     }
 
@@ -178,6 +182,7 @@ pub(crate) fn build(spec: &DomainSpec) -> Result<Model, Invalid> {
         b.path(c, false)?;
     }
     super::surface::add_surfaces(&spec.surface, &mut b.model)?;
+    super::solid::add_solids(&spec.solid, &mut b.model)?;
     Ok(b.model)
 }
 

@@ -36,6 +36,7 @@
 mod build;
 mod error;
 mod planar;
+mod solid;
 mod spec;
 mod surface;
 

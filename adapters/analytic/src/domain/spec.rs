@@ -24,6 +24,8 @@ pub(crate) struct DomainSpec {
     pub curve: Vec<PathSpec>,
     #[serde(default)]
     pub surface: Vec<super::surface::SurfaceSpec>,
+    #[serde(default)]
+    pub solid: Vec<super::solid::SolidSpec>,
 }
 
 /// One `[[face]]`.

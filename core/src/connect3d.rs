@@ -1,0 +1,325 @@
+//! Volume connection (thesis §2.1.1, §3.1.3 in 3D): the Delaunay
+//! tetrahedralization of a volume's bubble centres, made to conform to the
+//! boundary mesh, and the tetrahedra inside it.
+//!
+//! Boundary conformity: every boundary triangle must be a face of the
+//! tetrahedralization. A triangle is a Delaunay face when some sphere
+//! through its corners is empty; its *diametral* ball (centred on the
+//! triangle's circumcentre, in its plane) is the smallest such sphere. The
+//! bubbles of a well-packed volume stay about 0.8·d off the boundary, so
+//! that ball is almost always empty; where it is not, the free bubbles
+//! inside it are removed and the tetrahedralization rebuilt (a boundary
+//! triangle is never changed, so the boundary mesh is exactly the faces'
+//! meshes). If a boundary triangle is still missing when no free bubble
+//! blocks it, the surface mesh itself is not Delaunay there and the volume
+//! is refused with the triangle's position.
+//!
+//! Inside: tetrahedra are flooded from the inner side of every boundary
+//! triangle without crossing the boundary; reaching the convex hull means
+//! the boundary leaks, which is reported rather than meshed.
+//!
+//! Invariants of the result: every tetrahedron has positive volume
+//! (`orient3d` exact), the tetrahedra's boundary faces are exactly the
+//! boundary triangles, each used once.
+
+use std::collections::{HashMap, HashSet};
+
+use robust::Coord3D;
+
+use crate::geom::P3;
+
+/// Rounds of "remove the bubbles blocking a boundary triangle, rebuild".
+const RECOVERY_ROUNDS: usize = 6;
+
+/// Why a volume could not be connected.
+#[derive(Debug, thiserror::Error)]
+pub enum Connect3dError {
+    #[error("Delaunay tetrahedralization failed: {0}")]
+    Delaunay(String),
+    #[error(
+        "{missing} boundary triangle(s) are not faces of the tetrahedralization and no interior \
+         node blocks them (first near ({x:.6}, {y:.6}, {z:.6})); the surface mesh is not \
+         Delaunay there — try a finer size"
+    )]
+    NotConforming {
+        missing: usize,
+        x: f64,
+        y: f64,
+        z: f64,
+    },
+    #[error("the boundary mesh does not close the volume: the tetrahedra inside reach the convex hull near ({x:.6}, {y:.6}, {z:.6})")]
+    Leak { x: f64, y: f64, z: f64 },
+    #[error("two boundary nodes coincide at ({x:.6}, {y:.6}, {z:.6})")]
+    Duplicate { x: f64, y: f64, z: f64 },
+}
+
+/// The tetrahedra of a volume.
+#[derive(Debug, Default)]
+pub struct VolumeConnection {
+    /// Which input points the mesh uses (free points blocking the boundary
+    /// are dropped).
+    pub kept: Vec<bool>,
+    /// Tetrahedra (input point indices), positively oriented.
+    pub tets: Vec<[u32; 4]>,
+    /// Rebuilds needed for boundary recovery.
+    pub recovery_rounds: usize,
+    /// Free points removed for boundary recovery.
+    pub removed: usize,
+}
+
+pub(crate) fn c3(p: &P3) -> Coord3D<f64> {
+    Coord3D {
+        x: p.x,
+        y: p.y,
+        z: p.z,
+    }
+}
+
+fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
+    t.sort_unstable();
+    t
+}
+
+/// Tet face `k` (opposite corner k), oriented so that corner k sees it
+/// counter-clockwise... i.e. with its normal pointing away from corner k
+/// when the tet is positive.
+pub(crate) const FACE: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+
+/// Connects the points `pts` of one volume: the first `n_fixed` are
+/// boundary nodes, the rest free bubbles; `boundary` are the boundary
+/// triangles (indices into `pts`), oriented with outward normals.
+pub fn connect_volume(
+    pts: &[P3],
+    n_fixed: usize,
+    boundary: &[[u32; 3]],
+) -> Result<VolumeConnection, Connect3dError> {
+    let n = pts.len();
+    let mut kept = vec![true; n];
+    let bset: HashMap<[u32; 3], usize> = boundary
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (sorted3(*t), k))
+        .collect();
+    let mut removed = 0;
+    for round in 0..=RECOVERY_ROUNDS {
+        let active: Vec<u32> = (0..n as u32).filter(|&i| kept[i as usize]).collect();
+        let coords: Vec<[f64; 3]> = active
+            .iter()
+            .map(|&i| {
+                let p = pts[i as usize];
+                [p.x, p.y, p.z]
+            })
+            .collect();
+        let dt = bubblemesh_delaunay::tetrahedralize(&coords)
+            .map_err(|e| Connect3dError::Delaunay(e.to_string()))?;
+        // a duplicate free point is dropped; duplicate boundary nodes are an
+        // error
+        let mut dup_free = false;
+        for &(a, b) in &dt.duplicates {
+            let (ga, gb) = (active[a as usize], active[b as usize]);
+            let free = if ga as usize >= n_fixed {
+                Some(ga)
+            } else if gb as usize >= n_fixed {
+                Some(gb)
+            } else {
+                None
+            };
+            match free {
+                Some(f) => {
+                    kept[f as usize] = false;
+                    removed += 1;
+                    dup_free = true;
+                }
+                None => {
+                    let p = pts[ga as usize];
+                    return Err(Connect3dError::Duplicate {
+                        x: p.x,
+                        y: p.y,
+                        z: p.z,
+                    });
+                }
+            }
+        }
+        if dup_free {
+            continue;
+        }
+        let tets: Vec<[u32; 4]> = dt
+            .tets
+            .iter()
+            .map(|t| t.map(|k| active[k as usize]))
+            .collect();
+        // which boundary triangles are tet faces
+        let mut found = vec![false; boundary.len()];
+        for t in &tets {
+            for f in FACE {
+                if let Some(&k) = bset.get(&sorted3(f.map(|i| t[i]))) {
+                    found[k] = true;
+                }
+            }
+        }
+        let missing: Vec<usize> = (0..boundary.len()).filter(|&k| !found[k]).collect();
+        if !missing.is_empty() {
+            if round == RECOVERY_ROUNDS {
+                let p = pts[boundary[missing[0]][0] as usize];
+                return Err(Connect3dError::NotConforming {
+                    missing: missing.len(),
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                });
+            }
+            let before = removed;
+            remove_blockers(pts, n_fixed, boundary, &missing, &mut kept, &mut removed);
+            if removed == before {
+                let p = pts[boundary[missing[0]][0] as usize];
+                return Err(Connect3dError::NotConforming {
+                    missing: missing.len(),
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                });
+            }
+            continue;
+        }
+        let inside = flood_inside(pts, &tets, &dt.neighbours, boundary, &bset)?;
+        let mut out = Vec::with_capacity(inside.iter().filter(|&&b| b).count());
+        for (t, &ins) in tets.iter().zip(&inside) {
+            if !ins {
+                continue;
+            }
+            let [a, b, c, d] = t.map(|k| pts[k as usize]);
+            // our convention: det(b−a, c−a, d−a) > 0; robust's orient3d is
+            // positive when d is below the plane of a, b, c
+            let o = robust::orient3d(c3(&a), c3(&b), c3(&c), c3(&d));
+            out.push(if o < 0.0 {
+                *t
+            } else {
+                [t[0], t[2], t[1], t[3]]
+            });
+        }
+        return Ok(VolumeConnection {
+            kept,
+            tets: out,
+            recovery_rounds: round,
+            removed,
+        });
+    }
+    unreachable!("the last round returns")
+}
+
+/// Removes the free points inside the diametral balls of the missing
+/// boundary triangles.
+fn remove_blockers(
+    pts: &[P3],
+    n_fixed: usize,
+    boundary: &[[u32; 3]],
+    missing: &[usize],
+    kept: &mut [bool],
+    removed: &mut usize,
+) {
+    // balls, then a grid over them
+    let balls: Vec<(P3, f64)> = missing
+        .iter()
+        .map(|&k| {
+            let [a, b, c] = boundary[k].map(|i| pts[i as usize]);
+            circumball(&a, &b, &c)
+        })
+        .collect();
+    let rmax = balls.iter().map(|b| b.1).fold(0.0f64, f64::max);
+    let centres: Vec<P3> = balls.iter().map(|b| b.0).collect();
+    let grid = crate::engine::grid::Grid::new(&centres, rmax.max(f64::MIN_POSITIVE));
+    for i in n_fixed..pts.len() {
+        if !kept[i] {
+            continue;
+        }
+        let p = pts[i];
+        let mut hit = false;
+        grid.query(&p, rmax * 1.01, |k| {
+            let (c, r) = balls[k as usize];
+            if (p - c).norm() <= r * 1.01 {
+                hit = true;
+            }
+        });
+        if hit {
+            kept[i] = false;
+            *removed += 1;
+        }
+    }
+}
+
+/// The circumcentre and circumradius of a triangle (in its plane).
+pub(crate) fn circumball(a: &P3, b: &P3, c: &P3) -> (P3, f64) {
+    let (ab, ac) = (b - a, c - a);
+    let n = ab.cross(&ac);
+    let nn = n.norm_squared();
+    if nn == 0.0 {
+        let m = P3::from((a.coords + b.coords + c.coords) / 3.0);
+        let r = (a - m).norm().max((b - m).norm()).max((c - m).norm());
+        return (m, r);
+    }
+    let off = (n.cross(&ab) * ac.norm_squared() + ac.cross(&n) * ab.norm_squared()) / (2.0 * nn);
+    (a + off, off.norm())
+}
+
+/// Marks the tetrahedra inside the boundary: flood from the inner side of
+/// each boundary triangle without crossing boundary triangles.
+fn flood_inside(
+    pts: &[P3],
+    tets: &[[u32; 4]],
+    neighbours: &[[u32; 4]],
+    boundary: &[[u32; 3]],
+    bset: &HashMap<[u32; 3], usize>,
+) -> Result<Vec<bool>, Connect3dError> {
+    let mut inside = vec![false; tets.len()];
+    let mut stack = Vec::new();
+    let mut used = HashSet::new();
+    for (ti, t) in tets.iter().enumerate() {
+        for (k, f) in FACE.iter().enumerate() {
+            if let Some(&bk) = bset.get(&sorted3(f.map(|i| t[i]))) {
+                let [a, b, c] = boundary[bk].map(|i| pts[i as usize]);
+                let d = pts[t[k] as usize];
+                // the fourth corner below the outward-oriented triangle:
+                // this tet is on the inner side
+                if robust::orient3d(c3(&a), c3(&b), c3(&c), c3(&d)) > 0.0 && !inside[ti] {
+                    inside[ti] = true;
+                    stack.push(ti);
+                }
+                if robust::orient3d(c3(&a), c3(&b), c3(&c), c3(&d)) > 0.0 {
+                    used.insert(bk);
+                }
+            }
+        }
+    }
+    while let Some(ti) = stack.pop() {
+        let t = tets[ti];
+        for (k, f) in FACE.iter().enumerate() {
+            if bset.contains_key(&sorted3(f.map(|i| t[i]))) {
+                continue;
+            }
+            let nb = neighbours[ti][k];
+            if nb == u32::MAX {
+                let p = pts[t[f[0]] as usize];
+                return Err(Connect3dError::Leak {
+                    x: p.x,
+                    y: p.y,
+                    z: p.z,
+                });
+            }
+            if !inside[nb as usize] {
+                inside[nb as usize] = true;
+                stack.push(nb as usize);
+            }
+        }
+    }
+    if used.len() != boundary.len() {
+        let k = (0..boundary.len()).find(|k| !used.contains(k)).unwrap_or(0);
+        let p = pts[boundary[k][0] as usize];
+        return Err(Connect3dError::NotConforming {
+            missing: boundary.len() - used.len(),
+            x: p.x,
+            y: p.y,
+            z: p.z,
+        });
+    }
+    Ok(inside)
+}

@@ -1,0 +1,547 @@
+//! Sliver removal after the volume connection (not in the thesis; its
+//! §5.1.4 tetrahedra come straight from Delaunay).
+//!
+//! A Delaunay tetrahedralization of well-packed bubbles still holds
+//! *slivers*: four nearly cospherical, nearly coplanar points make a flat
+//! tetrahedron with a good circumsphere but a tiny volume. They are removed
+//! here by moving their free corners: a pattern search over small moves
+//! (at most [`MAX_MOVE`]·d in total) that raises the worst radius ratio of
+//! the node's star, accepted only when every tetrahedron of the star stays
+//! positively oriented (exact `orient3d`). Topology is unchanged, so the
+//! boundary stays exactly the faces' meshes and no node leaves its volume
+//! (a node inside a valid star cannot cross the star's outer faces).
+
+use crate::geom::{P3, V3};
+
+/// Tetrahedra whose [`objective`] is below this are worked on (about
+/// radius ratio 0.55, dihedral angles within [27°, 138°]).
+pub const TARGET_Q: f64 = 0.55;
+/// Rounds of the pattern search.
+pub const ROUNDS: usize = 8;
+/// Largest move of a node per smoothing pass, in units of its spacing.
+pub const MAX_MOVE: f64 = 0.35;
+
+/// What sliver removal did.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct SliverStats {
+    /// Tetrahedra below [`TARGET_Q`] before and after, and the worst
+    /// [`objective`].
+    pub bad_before: usize,
+    pub bad_after: usize,
+    pub min_q_before: f64,
+    pub min_q_after: f64,
+    pub moves: usize,
+    /// Edge removals and 2-3 flips.
+    pub flips: usize,
+}
+
+/// Radius ratio 3·r_in/r_circ of the tetrahedron (1 for a regular one),
+/// negative when it is inverted, 0 when flat.
+pub fn radius_ratio(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
+    let (u, v, w) = (b - a, c - a, d - a);
+    let vol6 = u.dot(&v.cross(&w));
+    if vol6 == 0.0 {
+        return 0.0;
+    }
+    let n = v.cross(&w) * u.norm_squared()
+        + w.cross(&u) * v.norm_squared()
+        + u.cross(&v) * w.norm_squared();
+    let area = 0.5
+        * (u.cross(&v).norm()
+            + v.cross(&w).norm()
+            + w.cross(&u).norm()
+            + (c - b).cross(&(d - b)).norm());
+    // r_in = 3V/A = vol6/(2A), R = |n|/(2·vol6)  ⇒  3 r_in/R = 3·vol6²/(A·|n|)
+    let q = 3.0 * vol6 * vol6 / (area * n.norm());
+    if vol6 > 0.0 {
+        q
+    } else {
+        -q
+    }
+}
+
+/// The quality the improvement maximises: the radius ratio, capped by the
+/// extreme dihedral angles (scaled so that 25° and 140° score about 0.51,
+/// a regular tetrahedron 1): min(ρ, 1.45·θ_min/70.53°, 1.45·(180° − θ_max)/109.47°).
+/// Negative for an inverted tetrahedron.
+pub fn objective(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
+    let rr = radius_ratio(a, b, c, d);
+    if rr <= 0.0 {
+        return rr;
+    }
+    let (lo, hi) = dihedral_extremes(a, b, c, d);
+    rr.min(1.45 * lo / 70.528_779)
+        .min(1.45 * (180.0 - hi) / 109.471_221)
+}
+
+/// The smallest and largest dihedral angle in degrees.
+pub fn dihedral_extremes(a: &P3, b: &P3, c: &P3, d: &P3) -> (f64, f64) {
+    let p = [a, b, c, d];
+    // outward face normals; face k is opposite corner k
+    let n: Vec<V3> = (0..4)
+        .map(|k| {
+            let f: Vec<&P3> = (0..4).filter(|&i| i != k).map(|i| p[i]).collect();
+            let nn = (f[1] - f[0]).cross(&(f[2] - f[0]));
+            let s = if nn.dot(&(p[k] - f[0])) > 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            nn * (s / nn.norm().max(f64::MIN_POSITIVE))
+        })
+        .collect();
+    let (mut lo, mut hi) = (180.0f64, 0.0f64);
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let ang = 180.0 - n[i].dot(&n[j]).clamp(-1.0, 1.0).acos().to_degrees();
+            lo = lo.min(ang);
+            hi = hi.max(ang);
+        }
+    }
+    (lo, hi)
+}
+
+fn tet_q(pos: &[P3], t: &[u32; 4]) -> f64 {
+    let [a, b, c, d] = t.map(|k| pos[k as usize]);
+    objective(&a, &b, &c, &d)
+}
+
+fn positive(pos: &[P3], t: &[u32; 4]) -> bool {
+    let [a, b, c, d] = t.map(|k| crate::connect3d::c3(&pos[k as usize]));
+    // det(b−a, c−a, d−a) > 0 ⇔ robust's orient3d(a, b, c, d) < 0
+    robust::orient3d(a, b, c, d) < 0.0
+}
+
+/// Moves free nodes (`movable`) to raise the radius ratio of the tetrahedra
+/// below [`TARGET_Q`]. `d` is the spacing per node. Tetrahedra must be
+/// positively oriented and stay so.
+pub fn improve(
+    pos: &mut [P3],
+    movable: &mut [bool],
+    tets: &mut Vec<[u32; 4]>,
+    d: &[f64],
+) -> SliverStats {
+    let qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    let before = (
+        qs.iter().filter(|&&q| q < TARGET_Q).count(),
+        qs.iter().cloned().fold(1.0, f64::min),
+    );
+    let mut stats = SliverStats::default();
+    for _ in 0..2 {
+        let s = smooth(pos, movable, tets, d);
+        stats.moves += s.moves;
+        stats.flips += flip(pos, tets);
+    }
+    let s = smooth(pos, movable, tets, d);
+    stats.moves += s.moves;
+    stats.bad_before = before.0;
+    stats.min_q_before = before.1;
+    stats.bad_after = s.bad_after;
+    stats.min_q_after = s.min_q_after;
+    stats
+}
+
+/// The smoothing pass of [`improve`].
+fn smooth(pos: &mut [P3], movable: &[bool], tets: &[[u32; 4]], d: &[f64]) -> SliverStats {
+    let n = pos.len();
+    let mut start = vec![0u32; n + 1];
+    for t in tets.iter() {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; start[n] as usize];
+    for (ti, t) in tets.iter().enumerate() {
+        for &v in t {
+            inc[fill[v as usize] as usize] = ti as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    let star = |v: usize| &inc[start[v] as usize..start[v + 1] as usize];
+    let qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    let mut stats = SliverStats {
+        bad_before: qs.iter().filter(|&&q| q < TARGET_Q).count(),
+        min_q_before: qs.iter().cloned().fold(1.0, f64::min),
+        ..Default::default()
+    };
+    let origin: Vec<P3> = pos.to_vec();
+    let dirs: Vec<V3> = {
+        let mut v = Vec::new();
+        for x in -1..=1 {
+            for y in -1..=1 {
+                for z in -1..=1 {
+                    if (x, y, z) != (0, 0, 0) {
+                        v.push(V3::new(x as f64, y as f64, z as f64).normalize());
+                    }
+                }
+            }
+        }
+        v
+    };
+    for _round in 0..ROUNDS {
+        // nodes of bad tets, worst first
+        let mut work: Vec<(f64, usize)> = Vec::new();
+        let mut seen = vec![false; n];
+        for t in tets.iter() {
+            let q = tet_q(pos, t);
+            if q < TARGET_Q {
+                for &v in t {
+                    let v = v as usize;
+                    if movable[v] && !seen[v] {
+                        seen[v] = true;
+                        work.push((q, v));
+                    }
+                }
+            }
+        }
+        if work.is_empty() {
+            break;
+        }
+        work.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut moved_any = false;
+        for &(_, v) in &work {
+            let worst = |pos: &[P3]| -> f64 {
+                star(v)
+                    .iter()
+                    .map(|&t| tet_q(pos, &tets[t as usize]))
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let mut best = worst(pos);
+            let p0 = pos[v];
+            let mut step = 0.1 * d[v];
+            while step > 0.01 * d[v] {
+                let mut improved = false;
+                for dir in &dirs {
+                    let cand = pos[v] + dir * step;
+                    if (cand - origin[v]).norm() > MAX_MOVE * d[v] {
+                        continue;
+                    }
+                    let keep = pos[v];
+                    pos[v] = cand;
+                    let w = worst(pos);
+                    if w > best + 1e-9 && star(v).iter().all(|&t| positive(pos, &tets[t as usize]))
+                    {
+                        best = w;
+                        improved = true;
+                    } else {
+                        pos[v] = keep;
+                    }
+                }
+                if !improved {
+                    step *= 0.5;
+                }
+            }
+            if pos[v] != p0 {
+                stats.moves += 1;
+                moved_any = true;
+            }
+        }
+        if !moved_any {
+            break;
+        }
+    }
+    let _ = movable;
+    let qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    stats.bad_after = qs.iter().filter(|&&q| q < TARGET_Q).count();
+    stats.min_q_after = qs.iter().cloned().fold(1.0, f64::min);
+    stats
+}
+
+/// A tetrahedral mesh being improved: tets with a dead flag and, per node,
+/// the live tets around it.
+struct TetMesh<'a> {
+    pos: &'a [P3],
+    tets: Vec<[u32; 4]>,
+    dead: Vec<bool>,
+    inc: Vec<Vec<u32>>,
+}
+
+impl<'a> TetMesh<'a> {
+    fn new(pos: &'a [P3], tets: &[[u32; 4]]) -> Self {
+        let mut inc = vec![Vec::new(); pos.len()];
+        for (ti, t) in tets.iter().enumerate() {
+            for &v in t {
+                inc[v as usize].push(ti as u32);
+            }
+        }
+        TetMesh {
+            pos,
+            tets: tets.to_vec(),
+            dead: vec![false; tets.len()],
+            inc,
+        }
+    }
+
+    fn q(&self, t: &[u32; 4]) -> f64 {
+        tet_q(self.pos, t)
+    }
+
+    fn remove(&mut self, ti: u32) {
+        self.dead[ti as usize] = true;
+        for &v in &self.tets[ti as usize] {
+            self.inc[v as usize].retain(|&x| x != ti);
+        }
+    }
+
+    fn add(&mut self, t: [u32; 4]) {
+        let ti = self.tets.len() as u32;
+        self.tets.push(t);
+        self.dead.push(false);
+        for &v in &t {
+            self.inc[v as usize].push(ti);
+        }
+    }
+
+    /// Live tets containing every node of `vs`.
+    fn around(&self, vs: &[u32]) -> Vec<u32> {
+        let first = &self.inc[vs[0] as usize];
+        first
+            .iter()
+            .cloned()
+            .filter(|&t| vs[1..].iter().all(|v| self.tets[t as usize].contains(v)))
+            .collect()
+    }
+
+    /// Sign of det(b−a, c−a, d−a) (exact).
+    fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> f64 {
+        let [a, b, c, d] = [a, b, c, d].map(|k| crate::connect3d::c3(&self.pos[k as usize]));
+        -robust::orient3d(a, b, c, d)
+    }
+
+    /// Removes the interior edge (d, e) if a re-triangulation of its ring
+    /// (at most 7 tets around it) raises the worst radius ratio there.
+    fn try_edge_removal(&mut self, d: u32, e: u32) -> bool {
+        let ring_tets = self.around(&[d, e]);
+        let m = ring_tets.len();
+        if !(3..=7).contains(&m) {
+            return false;
+        }
+        // ring edges x–y of each tet, chained into a cycle
+        let mut links: Vec<[u32; 2]> = ring_tets
+            .iter()
+            .map(|&t| {
+                let o: Vec<u32> = self.tets[t as usize]
+                    .iter()
+                    .cloned()
+                    .filter(|&v| v != d && v != e)
+                    .collect();
+                [o[0], o[1]]
+            })
+            .collect();
+        let mut ring = vec![links[0][0], links[0][1]];
+        links.swap_remove(0);
+        while !links.is_empty() {
+            let last = *ring.last().unwrap_or(&u32::MAX);
+            let Some(k) = links.iter().position(|l| l[0] == last || l[1] == last) else {
+                return false; // open ring: a boundary edge
+            };
+            let l = links.swap_remove(k);
+            let next = if l[0] == last { l[1] } else { l[0] };
+            if links.is_empty() {
+                if next != ring[0] {
+                    return false;
+                }
+            } else {
+                ring.push(next);
+            }
+        }
+        if ring.len() != m {
+            return false;
+        }
+        // counter-clockwise seen from d: Newell normal towards d
+        let p = |k: u32| self.pos[k as usize];
+        let mut nrm = V3::zeros();
+        for i in 0..m {
+            nrm += p(ring[i]).coords.cross(&p(ring[(i + 1) % m]).coords);
+        }
+        if nrm.dot(&(p(d) - p(e))) < 0.0 {
+            ring.reverse();
+        }
+        let old_q = ring_tets
+            .iter()
+            .map(|&t| self.q(&self.tets[t as usize]))
+            .fold(f64::INFINITY, f64::min);
+        // Klincsek's dynamic programme over triangulations of the ring:
+        // best[i][j] = best worst-quality of the polygon ring[i..=j]
+        let tri_q = |i: usize, j: usize, k: usize| -> f64 {
+            let (a, b, c) = (ring[i], ring[j], ring[k]);
+            if self.orient(a, b, c, d) <= 0.0 || self.orient(a, c, b, e) <= 0.0 {
+                return f64::NEG_INFINITY;
+            }
+            self.q(&[a, b, c, d]).min(self.q(&[a, c, b, e]))
+        };
+        let mut best = vec![vec![f64::INFINITY; m]; m];
+        let mut split = vec![vec![usize::MAX; m]; m];
+        for len in 2..m {
+            for i in 0..m - len {
+                let j = i + len;
+                best[i][j] = f64::NEG_INFINITY;
+                for k in i + 1..j {
+                    let v = tri_q(i, k, j).min(best[i][k]).min(best[k][j]);
+                    if v > best[i][j] {
+                        best[i][j] = v;
+                        split[i][j] = k;
+                    }
+                }
+            }
+        }
+        if !(best[0][m - 1] > old_q + 1e-6) {
+            return false;
+        }
+        let mut new_tris = Vec::new();
+        let mut stack = vec![(0usize, m - 1)];
+        while let Some((i, j)) = stack.pop() {
+            if j < i + 2 {
+                continue;
+            }
+            let k = split[i][j];
+            new_tris.push((ring[i], ring[k], ring[j]));
+            stack.push((i, k));
+            stack.push((k, j));
+        }
+        for t in ring_tets {
+            self.remove(t);
+        }
+        for (a, b, c) in new_tris {
+            self.add([a, b, c, d]);
+            self.add([a, c, b, e]);
+        }
+        true
+    }
+
+    /// Replaces the two tets sharing the interior face (a, b, c) by three
+    /// around the edge joining their apexes, if that raises the worst
+    /// radius ratio.
+    fn try_2_3(&mut self, f: [u32; 3]) -> bool {
+        let pair = self.around(&f);
+        if pair.len() != 2 {
+            return false;
+        }
+        let apex = |t: u32| -> u32 {
+            self.tets[t as usize]
+                .iter()
+                .cloned()
+                .find(|v| !f.contains(v))
+                .unwrap_or(u32::MAX)
+        };
+        let (d, e) = (apex(pair[0]), apex(pair[1]));
+        if d == u32::MAX || e == u32::MAX || !self.around(&[d, e]).is_empty() {
+            return false;
+        }
+        let old_q = self
+            .q(&self.tets[pair[0] as usize])
+            .min(self.q(&self.tets[pair[1] as usize]));
+        let mut new = Vec::new();
+        for i in 0..3 {
+            let (a, b) = (f[i], f[(i + 1) % 3]);
+            let t = if self.orient(a, b, d, e) > 0.0 {
+                [a, b, d, e]
+            } else {
+                [b, a, d, e]
+            };
+            new.push(t);
+        }
+        // valid only if the three have one orientation pattern: all
+        // positive as built and the segment d–e crosses the face
+        let signs: Vec<f64> = (0..3)
+            .map(|i| self.orient(f[i], f[(i + 1) % 3], d, e))
+            .collect();
+        if !(signs.iter().all(|&s| s > 0.0) || signs.iter().all(|&s| s < 0.0)) {
+            return false;
+        }
+        let new_q = new.iter().map(|t| self.q(t)).fold(f64::INFINITY, f64::min);
+        if !(new_q > old_q + 1e-6) {
+            return false;
+        }
+        self.remove(pair[0]);
+        self.remove(pair[1]);
+        for t in new {
+            self.add(t);
+        }
+        true
+    }
+
+    fn into_tets(self) -> Vec<[u32; 4]> {
+        self.tets
+            .into_iter()
+            .zip(self.dead)
+            .filter(|(_, d)| !d)
+            .map(|(t, _)| t)
+            .collect()
+    }
+}
+
+/// Topological improvement: edge removals and 2-3 flips around every
+/// tetrahedron below [`TARGET_Q`], each accepted only when it raises the
+/// worst radius ratio of the tetrahedra it replaces (so it terminates).
+/// Boundary faces are never flipped: a boundary face has one tetrahedron
+/// and a boundary edge an open ring.
+pub fn flip(pos: &[P3], tets: &mut Vec<[u32; 4]>) -> usize {
+    let mut tm = TetMesh::new(pos, tets);
+    let mut flips = 0;
+    for _round in 0..4 {
+        let mut changed = 0;
+        let bad: Vec<u32> = (0..tm.tets.len() as u32)
+            .filter(|&t| !tm.dead[t as usize] && tm.q(&tm.tets[t as usize]) < TARGET_Q)
+            .collect();
+        for t in bad {
+            if tm.dead[t as usize] {
+                continue;
+            }
+            let tt = tm.tets[t as usize];
+            let mut done = false;
+            for (i, j) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                if tm.try_edge_removal(tt[i], tt[j]) {
+                    done = true;
+                    break;
+                }
+            }
+            if !done {
+                for k in 0..4 {
+                    let f = [tt[FACE3[k][0]], tt[FACE3[k][1]], tt[FACE3[k][2]]];
+                    if tm.try_2_3(f) {
+                        done = true;
+                        break;
+                    }
+                }
+            }
+            if done {
+                changed += 1;
+            }
+        }
+        flips += changed;
+        if changed == 0 {
+            break;
+        }
+    }
+    *tets = tm.into_tets();
+    flips
+}
+
+const FACE3: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radius_ratio_of_regular_and_sliver() {
+        let a = P3::new(1.0, 1.0, 1.0);
+        let b = P3::new(1.0, -1.0, -1.0);
+        let c = P3::new(-1.0, 1.0, -1.0);
+        let d = P3::new(-1.0, -1.0, 1.0);
+        assert!((radius_ratio(&a, &b, &c, &d).abs() - 1.0).abs() < 1e-12);
+        // a sliver: a square's corners lifted alternately by 0.01
+        let s = [
+            P3::new(0.0, 0.0, 0.0),
+            P3::new(1.0, 0.0, 0.01),
+            P3::new(1.0, 1.0, 0.0),
+            P3::new(0.0, 1.0, 0.01),
+        ];
+        assert!(radius_ratio(&s[0], &s[1], &s[2], &s[3]).abs() < 0.05);
+    }
+}
