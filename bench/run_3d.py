@@ -272,7 +272,7 @@ def timed_run(cmd, timeout):
     try:
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
-        return None, None, None
+        p = None        # run() has killed and reaped the child: its CPU time is counted below
     wall = time.perf_counter() - t0
     r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
@@ -311,7 +311,7 @@ def run_bubblemesh(binary, case, rp, a, meshdir):
                 os.remove(fn)
         p, wall, cpu = timed_run(cmd, a.timeout)
         if p is None:
-            rec.update(status="timeout", error="bubblemesh exceeded %d s" % a.timeout)
+            rec.update(status="timeout", error="bubblemesh exceeded %d s (%.0f s CPU)" % (a.timeout, cpu))
             break
         if p.returncode != 0 or not os.path.exists(repf) or not os.path.exists(out):
             rec.update(status="failed", returncode=p.returncode,
@@ -359,7 +359,7 @@ def run_gmsh(case, peer, rp, a, meshdir):
                 os.remove(fn)
         p, wall, cpu = timed_run(cmd, a.timeout)
         if p is None:
-            rec.update(status="timeout", error="gmsh worker exceeded %d s" % a.timeout)
+            rec.update(status="timeout", error="gmsh worker exceeded %d s (%.0f s CPU)" % (a.timeout, cpu))
             break
         if p.returncode != 0 or not os.path.exists(jsonfile):
             rec.update(status="failed", returncode=p.returncode,
