@@ -83,10 +83,13 @@ fn curvature_plugin_equals_the_builtin_everywhere() {
             );
             varied = (varied.0.min(b), varied.1.max(b));
         }
-        assert!(
-            varied.1 > 1.5 * varied.0,
-            "{name}: the field should vary: {varied:?}"
-        );
+        // (constant on the torus and the cylinder: |k1| = 1/minor radius)
+        if name == "bump" {
+            assert!(
+                varied.1 > 1.5 * varied.0,
+                "{name}: the field should vary: {varied:?}"
+            );
+        }
     }
 }
 
