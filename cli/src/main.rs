@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! bubblemesh mesh INPUT -o OUTPUT [--size EXPR] [--dim N] [--fast] [--report FILE.json]
+//!                 [--plugin LIB [--plugin-arg KEY=VALUE]...]... [--plugin-config FILE]
 //!                 [picture options] [--plots DIR] [--frames DIR] [--animate FILE.html]
 //! bubblemesh quality MESH [--size EXPR] [--json FILE.json]
 //! bubblemesh draw MESH -o PICTURE [--size EXPR] [picture options] [--plots DIR]
@@ -26,6 +27,7 @@ use bubblemesh_core::engine::{Integrator, Progress};
 use bubblemesh_core::quality::{self, QualityReport};
 use bubblemesh_core::spacing::Expr;
 use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, P3, V3};
+use bubblemesh_plugin_host::{PluginSpacing, PluginSpec};
 use bubblemesh_viz::geometry::{node_spacing, node_spacing_from_edges, Measures};
 use bubblemesh_viz::{ColorBy, Kind, PictureOptions, ViewerOptions};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -137,6 +139,22 @@ struct MeshArgs {
     /// or their product (Fig. 5.10c).
     #[arg(long, value_enum, default_value = "min")]
     combine: CombineArg,
+    /// A spacing plugin: a shared library (plugins/README.md). Repeat for
+    /// several; each is followed by its --plugin-arg. Combines with the
+    /// other sources by --combine.
+    #[arg(long, value_name = "LIB")]
+    plugin: Vec<PathBuf>,
+    /// KEY=VALUE for the nearest --plugin before it.
+    #[arg(long, value_name = "KEY=VALUE", allow_hyphen_values = true)]
+    plugin_arg: Vec<String>,
+    /// A TOML file of plugins: [[plugin]] tables with path (relative to the
+    /// file) and args = { key = value, ... }.
+    #[arg(long, value_name = "FILE")]
+    plugin_config: Option<PathBuf>,
+    /// The plugins of --plugin/--plugin-arg (in command-line order) and
+    /// --plugin-config, filled in by `main`.
+    #[arg(skip)]
+    plugin_specs: Vec<PluginSpec>,
     /// Lower bound on the spacing (default for --curvature: EPS).
     #[arg(long, allow_hyphen_values = true)]
     d_min: Option<f64>,
@@ -188,9 +206,14 @@ struct QualityArgs {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
-        Command::Mesh(a) => run_mesh(a),
+        Command::Mesh(mut a) => plugin_specs(&matches, &a).and_then(|specs| {
+            a.plugin_specs = specs;
+            run_mesh(a)
+        }),
         Command::Quality(a) => run_quality(a),
         Command::Draw(a) => run_draw(a),
     };
@@ -201,6 +224,29 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The plugins to load: each --plugin with the --plugin-arg after it (clap
+/// keeps the positions), then those of --plugin-config.
+fn plugin_specs(matches: &clap::ArgMatches, a: &MeshArgs) -> Result<Vec<PluginSpec>, String> {
+    let Some(m) = matches.subcommand_matches("mesh") else {
+        return Ok(Vec::new());
+    };
+    let positions =
+        |id: &str| -> Vec<usize> { m.indices_of(id).map(|i| i.collect()).unwrap_or_default() };
+    let plugins: Vec<(usize, PathBuf)> = positions("plugin")
+        .into_iter()
+        .zip(a.plugin.iter().cloned())
+        .collect();
+    let args: Vec<(usize, String)> = positions("plugin_arg")
+        .into_iter()
+        .zip(a.plugin_arg.iter().cloned())
+        .collect();
+    let mut specs = bubblemesh_plugin_host::specs_from_command_line(&plugins, &args)?;
+    if let Some(file) = &a.plugin_config {
+        specs.extend(bubblemesh_plugin_host::read_config(file)?);
+    }
+    Ok(specs)
 }
 
 /// Reads the input model, choosing the reader by extension.
@@ -242,12 +288,13 @@ fn parse_spacing(text: &str, model: &Model) -> Result<Expr, String> {
 
 /// The spacing the command line asks for: the --size expression, the
 /// curvature and view sources, combined by minimum or product and clamped
-/// to --d-min/--d-max. Returns it with a one-line description.
+/// to --d-min/--d-max. Returns it with a one-line description and the
+/// plugins among the sources (whose failures the caller must check).
 fn build_spacing(
     a: &MeshArgs,
     size_text: &str,
     model: &Arc<Model>,
-) -> Result<(Box<dyn Spacing>, String), String> {
+) -> Result<(Box<dyn Spacing>, String, Vec<PluginSpacing>), String> {
     use bubblemesh_core::curvature::{Curvature, View};
     use bubblemesh_core::spacing::{Clamped, MinOf, ProductOf};
     let positive = |v: f64, what: &str| -> Result<f64, String> {
@@ -302,6 +349,17 @@ fn build_spacing(
             parts[0], parts[1], parts[2]
         ));
     }
+    let mut plugins = Vec::new();
+    for spec in &a.plugin_specs {
+        let p = PluginSpacing::load(spec, model.clone()).map_err(|e| e.to_string())?;
+        words.push(format!(
+            "plugin '{}' ({})",
+            p.plugin().name(),
+            spec.path.display()
+        ));
+        plugins.push(p.clone());
+        sources.push(Box::new(p));
+    }
     let joined = match a.combine {
         CombineArg::Min => words.join(", min with "),
         CombineArg::Product => words.join(" times "),
@@ -322,7 +380,7 @@ fn build_spacing(
             max: hi.unwrap_or(f64::INFINITY),
         }),
     };
-    Ok((bounded, format!("spacing {joined}")))
+    Ok((bounded, format!("spacing {joined}"), plugins))
 }
 
 fn run_mesh(a: MeshArgs) -> Result<(), String> {
@@ -351,7 +409,8 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         }
     }
     let model = Arc::new(model);
-    let others_given = a.curvature.is_some() || a.view_spacing.is_some();
+    let others_given =
+        a.curvature.is_some() || a.view_spacing.is_some() || !a.plugin_specs.is_empty();
     let size_text = match &a.size {
         Some(s) => s.clone(),
         None if others_given => String::new(),
@@ -370,7 +429,15 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             format!("{d}")
         }
     };
-    let (spacing, spacing_note) = build_spacing(&a, &size_text, &model)?;
+    let (spacing, spacing_note, plugins) = build_spacing(&a, &size_text, &model)?;
+    // a plugin's failure (refusal, panic, NaN, d <= 0) is the cause of any
+    // meshing error, and must fail the run even when a minimum hid it
+    let plugin_failure = || {
+        plugins
+            .iter()
+            .find_map(|p| p.failure())
+            .map(|f| format!("{}: {f}", a.input.display()))
+    };
     let spacing: &dyn Spacing = spacing.as_ref();
     let mut opts = Options {
         dim: a.dim,
@@ -392,12 +459,19 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         }));
     }
     let what = a.input.display().to_string();
-    let (mesh, report) = mesh_model(&model, spacing, &opts).map_err(|e| format!("{what}: {e}"))?;
+    let meshed = mesh_model(&model, spacing, &opts);
+    if let Some(f) = plugin_failure() {
+        return Err(f);
+    }
+    let (mesh, report) = meshed.map_err(|e| format!("{what}: {e}"))?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     let t_mesh = t0.elapsed().as_secs_f64();
     let q = quality::analyse(&mesh, Some(spacing));
+    if let Some(f) = plugin_failure() {
+        return Err(f);
+    }
     let t_write = Instant::now();
     let title = a.input.display().to_string();
     write_output(

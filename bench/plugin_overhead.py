@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""Overhead of a spacing plugin against the same spacing built in.
+
+    python3 bench/plugin_overhead.py [--eps 1.1e-4] [--reps 3] [--input examples/torus.toml]
+
+Meshes the torus (examples/torus.toml) with curvature-based spacing twice
+per repetition, alternating: `--curvature EPS` (built in) and
+`--plugin libbubblemesh_plugin_curvature.so --plugin-arg eps=EPS` (the
+same formula through the plugin ABI, with the host computing the local
+geometry). Both must give the same mesh (same node count: the same
+spacing). Prints the node count, the engine's time (`timings.total_s` of
+--report) and the whole process's wall time per run, their medians and the
+plugin's overhead in per cent. The default EPS gives about 100 k nodes.
+
+Not a test (timings depend on the machine's load): run it by hand.
+Builds with `cargo build --release -p bubblemesh-cli -p
+bubblemesh-plugin-curvature` into $CARGO_TARGET_DIR (default target/).
+"""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run(cmd):
+    t = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if r.returncode != 0:
+        sys.exit(f"failed: {' '.join(cmd)}\n{r.stderr}")
+    return wall
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--eps", type=float, default=1.1e-4)
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--input", default=os.path.join(ROOT, "examples/torus.toml"))
+    ap.add_argument("--no-build", action="store_true")
+    a = ap.parse_args()
+    target = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+    if not a.no_build:
+        subprocess.run(["cargo", "build", "--release", "-q", "-p", "bubblemesh-cli",
+                        "-p", "bubblemesh-plugin-curvature"], cwd=ROOT, check=True)
+    bin_ = os.path.join(target, "release/bubblemesh")
+    lib = os.path.join(target, "release/libbubblemesh_plugin_curvature.so")
+    res = {"built-in": [], "plugin": []}
+    with tempfile.TemporaryDirectory() as d:
+        for rep in range(a.reps):
+            for kind in ("built-in", "plugin"):
+                rep_json = os.path.join(d, f"{kind}.json")
+                cmd = [bin_, "mesh", a.input, "-o", os.path.join(d, "out.msh"), "-q",
+                       "--report", rep_json]
+                if kind == "built-in":
+                    cmd += ["--curvature", str(a.eps)]
+                else:
+                    cmd += ["--plugin", lib, "--plugin-arg", f"eps={a.eps}"]
+                wall = run(cmd)
+                r = json.load(open(rep_json))
+                nodes = r["engine"]["nodes"]
+                eng = r["engine"]["timings"]["total_s"]
+                res[kind].append((nodes, eng, wall))
+                print(f"rep {rep} {kind:>8}: {nodes} nodes, engine {eng:.2f} s, process {wall:.2f} s",
+                      flush=True)
+    med = {k: (statistics.median(x[1] for x in v), statistics.median(x[2] for x in v))
+           for k, v in res.items()}
+    nb = {x[0] for x in res["built-in"]}
+    npg = {x[0] for x in res["plugin"]}
+    print(f"\nnodes: built-in {sorted(nb)}, plugin {sorted(npg)}"
+          f" ({'same mesh size' if nb == npg else 'DIFFERENT'})")
+    for i, what in enumerate(["engine", "process"]):
+        b, p = med["built-in"][i], med["plugin"][i]
+        print(f"median {what} time: built-in {b:.2f} s, plugin {p:.2f} s, overhead {100 * (p / b - 1):+.1f} %")
+    over = med["plugin"][0] / med["built-in"][0] - 1
+    return 0 if over <= 0.10 and nb == npg else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
