@@ -20,7 +20,7 @@ use std::collections::HashMap;
 
 use robust::{Coord, Coord3D};
 
-use crate::geom::P3;
+use crate::geom::{P3, V3};
 
 /// A closed triangle shell with a (y,z) bin index for ray queries.
 pub struct Shell {
@@ -33,6 +33,136 @@ pub struct Shell {
     dims: [usize; 2],
     start: Vec<u32>,
     items: Vec<u32>,
+    /// A coarse voxel classification (see [`Voxels`]) answering most
+    /// queries without a ray.
+    voxels: Option<Voxels>,
+}
+
+/// Voxels of the shell's bounding box marked `BOUNDARY` when a triangle's
+/// bounding box touches them, else `INSIDE` or `OUTSIDE` by a flood fill
+/// from the box's border: a point in a non-boundary voxel is classified
+/// without a ray (the flood cannot cross the surface, whose triangles all
+/// lie in boundary voxels).
+struct Voxels {
+    lo: P3,
+    inv_h: f64,
+    dims: [usize; 3],
+    state: Vec<u8>,
+}
+
+const OUTSIDE: u8 = 0;
+const INSIDE: u8 = 1;
+const BOUNDARY: u8 = 2;
+const UNKNOWN: u8 = 3;
+
+impl Voxels {
+    fn new(pts: &[P3], tris: &[[u32; 3]]) -> Option<Voxels> {
+        if tris.is_empty() {
+            return None;
+        }
+        let mut lo = P3::new(f64::MAX, f64::MAX, f64::MAX);
+        let mut hi = P3::new(f64::MIN, f64::MIN, f64::MIN);
+        let mut edge = 0.0;
+        for t in tris {
+            for &k in t {
+                let p = pts[k as usize];
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+            edge += (pts[t[1] as usize] - pts[t[0] as usize]).norm();
+        }
+        let ext = hi - lo;
+        // voxels about one edge wide, at most 8 per triangle and 8M in all
+        let mut h = edge / tris.len() as f64;
+        let cap = ((8 * tris.len()).max(64) as f64).min(8e6);
+        if !(h > 0.0) {
+            return None;
+        }
+        // one voxel of margin on every side so the border is outside
+        lo -= V3::repeat(h);
+        while (0..3).map(|a| ((ext[a] + 2.0 * h) / h).ceil() + 1.0).product::<f64>() > cap {
+            h *= 1.25;
+        }
+        let lo = lo;
+        let dims = [0, 1, 2].map(|a| ((ext[a] + 2.0 * h) / h).ceil() as usize + 1);
+        let inv_h = 1.0 / h;
+        let idx = |i: usize, j: usize, k: usize| i + dims[0] * (j + dims[1] * k);
+        let mut state = vec![UNKNOWN; dims[0] * dims[1] * dims[2]];
+        let cell = |x: f64, a: usize| (((x - lo[a]) * inv_h).max(0.0) as usize).min(dims[a] - 1);
+        for t in tris {
+            let ps = t.map(|k| pts[k as usize]);
+            let r: Vec<(usize, usize)> = (0..3)
+                .map(|a| {
+                    let mn = ps.iter().map(|p| p[a]).fold(f64::MAX, f64::min);
+                    let mx = ps.iter().map(|p| p[a]).fold(f64::MIN, f64::max);
+                    // a hair wider than the triangle, so rounding at a voxel
+                    // face cannot leave a touched voxel unmarked
+                    let eps = 1e-6 * h;
+                    (cell(mn - eps, a), cell(mx + eps, a))
+                })
+                .collect();
+            for k in r[2].0..=r[2].1 {
+                for j in r[1].0..=r[1].1 {
+                    for i in r[0].0..=r[0].1 {
+                        state[idx(i, j, k)] = BOUNDARY;
+                    }
+                }
+            }
+        }
+        // flood the outside from the corner (always outside: margin)
+        let mut stack = vec![(0usize, 0usize, 0usize)];
+        state[0] = OUTSIDE;
+        while let Some((i, j, k)) = stack.pop() {
+            let mut visit = |i: usize, j: usize, k: usize, st: &mut Vec<u8>| {
+                let c = idx(i, j, k);
+                if st[c] == UNKNOWN {
+                    st[c] = OUTSIDE;
+                    stack.push((i, j, k));
+                }
+            };
+            if i > 0 {
+                visit(i - 1, j, k, &mut state);
+            }
+            if i + 1 < dims[0] {
+                visit(i + 1, j, k, &mut state);
+            }
+            if j > 0 {
+                visit(i, j - 1, k, &mut state);
+            }
+            if j + 1 < dims[1] {
+                visit(i, j + 1, k, &mut state);
+            }
+            if k > 0 {
+                visit(i, j, k - 1, &mut state);
+            }
+            if k + 1 < dims[2] {
+                visit(i, j, k + 1, &mut state);
+            }
+        }
+        // what the outside flood did not reach is inside or a void's
+        // outside; those are told apart per region by one ray test each,
+        // done lazily in `Shell::new`
+        Some(Voxels {
+            lo,
+            inv_h,
+            dims,
+            state,
+        })
+    }
+
+    fn at(&self, p: &P3) -> Option<usize> {
+        let mut c = [0usize; 3];
+        for a in 0..3 {
+            let x = (p[a] - self.lo[a]) * self.inv_h;
+            if !(x >= 0.0) || x as usize >= self.dims[a] {
+                return None;
+            }
+            c[a] = x as usize;
+        }
+        Some(c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2]))
+    }
 }
 
 fn c2(p: &P3) -> Coord<f64> {
@@ -86,6 +216,7 @@ impl Shell {
                 dims: [1, 1],
                 start: vec![0, 0],
                 items: vec![],
+                voxels: None,
             };
         }
         // cells about twice the mean edge length, at most ~4 per triangle
@@ -134,7 +265,7 @@ impl Shell {
                 }
             }
         }
-        Shell {
+        let mut shell = Shell {
             pts,
             tris: kept,
             lo,
@@ -142,12 +273,77 @@ impl Shell {
             dims,
             start: count,
             items,
+            voxels: None,
+        };
+        if let Some(mut vx) = Voxels::new(&shell.pts, tris) {
+            // classify the unreached regions: flood each from one voxel
+            // whose centre is ray-tested
+            let n = vx.state.len();
+            let d = vx.dims;
+            for seed in 0..n {
+                if vx.state[seed] != UNKNOWN {
+                    continue;
+                }
+                let (i, j, k) = (seed % d[0], (seed / d[0]) % d[1], seed / (d[0] * d[1]));
+                let h = 1.0 / vx.inv_h;
+                let centre = P3::new(
+                    vx.lo.x + (i as f64 + 0.5) * h,
+                    vx.lo.y + (j as f64 + 0.5) * h,
+                    vx.lo.z + (k as f64 + 0.5) * h,
+                );
+                let st = if shell.ray_inside(&centre) { INSIDE } else { OUTSIDE };
+                let mut stack = vec![seed];
+                vx.state[seed] = st;
+                while let Some(c) = stack.pop() {
+                    let (i, j, k) = (c % d[0], (c / d[0]) % d[1], c / (d[0] * d[1]));
+                    let mut nb = [usize::MAX; 6];
+                    if i > 0 {
+                        nb[0] = c - 1;
+                    }
+                    if i + 1 < d[0] {
+                        nb[1] = c + 1;
+                    }
+                    if j > 0 {
+                        nb[2] = c - d[0];
+                    }
+                    if j + 1 < d[1] {
+                        nb[3] = c + d[0];
+                    }
+                    if k > 0 {
+                        nb[4] = c - d[0] * d[1];
+                    }
+                    if k + 1 < d[2] {
+                        nb[5] = c + d[0] * d[1];
+                    }
+                    for o in nb {
+                        if o != usize::MAX && vx.state[o] == UNKNOWN {
+                            vx.state[o] = st;
+                            stack.push(o);
+                        }
+                    }
+                }
+            }
+            shell.voxels = Some(vx);
         }
+        shell
     }
 
     /// Whether `p` is inside the shell (odd number of crossings of the ray
-    /// from `p` towards +x).
+    /// from `p` towards +x; answered from the voxels away from the shell).
     pub fn inside(&self, p: &P3) -> bool {
+        if let Some(vx) = &self.voxels {
+            match vx.at(p).map(|c| vx.state[c]) {
+                None => return false,
+                Some(INSIDE) => return true,
+                Some(OUTSIDE) => return false,
+                _ => {}
+            }
+        }
+        self.ray_inside(p)
+    }
+
+    /// The exact ray-parity test.
+    fn ray_inside(&self, p: &P3) -> bool {
         let i = (p.y - self.lo[0]) * self.inv_h;
         let j = (p.z - self.lo[1]) * self.inv_h;
         if !(i >= 0.0 && j >= 0.0) || i as usize >= self.dims[0] || j as usize >= self.dims[1] {

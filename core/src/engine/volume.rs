@@ -46,6 +46,9 @@ pub const BOUNDARY_CLEARANCE: f64 = 0.65;
 /// `bench/run_3d.py`). The boundary (face) bubbles keep d.
 pub const VOLUME_PACKING: f64 = 0.95;
 
+/// Upper bound on stage-2 steps in a volume (see `mesh_volume`).
+pub const VOLUME_MAX_STEPS: usize = 100;
+
 /// d(x) scaled by a constant factor.
 struct Scaled<'a> {
     inner: &'a dyn Spacing,
@@ -354,9 +357,17 @@ pub(super) fn mesh_volume(
     timings.stage1_s += t1.elapsed().as_secs_f64();
     if !opts.fast {
         let t2 = Instant::now();
-        let max = opts.relax.max_steps;
+        // stage 1 is already a balanced FCC packing away from the boundary,
+        // and the ODT smoothing after stage 2 finishes the job: more steps
+        // cost time in proportion to the bubbles and did not improve the
+        // tetrahedra (measured on cases H, I with bench/run_3d.py)
+        let settings = super::system::RelaxSettings {
+            max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
+            ..opts.relax
+        };
+        let max = settings.max_steps;
         let progress = opts.progress.clone();
-        let stats = sys.relax(&opts.relax, |step| {
+        let stats = sys.relax(&settings, |step| {
             if let Some(p) = &progress {
                 p(super::Progress {
                     phase: "relax",
