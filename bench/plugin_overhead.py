@@ -43,13 +43,15 @@ def main():
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--input", default=os.path.join(ROOT, "examples/torus.toml"))
     ap.add_argument("--no-build", action="store_true")
+    ap.add_argument("--bin", help="bubblemesh binary (default: $CARGO_TARGET_DIR/release/bubblemesh)")
+    ap.add_argument("--lib", help="the curvature plugin (default: next to the release binary)")
     a = ap.parse_args()
     target = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
-    if not a.no_build:
+    if not (a.no_build or (a.bin and a.lib)):
         subprocess.run(["cargo", "build", "--release", "-q", "-p", "bubblemesh-cli",
                         "-p", "bubblemesh-plugin-curvature"], cwd=ROOT, check=True)
-    bin_ = os.path.join(target, "release/bubblemesh")
-    lib = os.path.join(target, "release/libbubblemesh_plugin_curvature.so")
+    bin_ = a.bin or os.path.join(target, "release/bubblemesh")
+    lib = a.lib or os.path.join(target, "release/libbubblemesh_plugin_curvature.so")
     res = {"built-in": [], "plugin": []}
     with tempfile.TemporaryDirectory() as d:
         for rep in range(a.reps):
