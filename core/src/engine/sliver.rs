@@ -17,7 +17,7 @@ use crate::geom::{P3, V3};
 /// radius ratio 0.55, dihedral angles within [27°, 138°]).
 pub const TARGET_Q: f64 = 0.55;
 /// Rounds of the pattern search.
-pub const ROUNDS: usize = 8;
+pub const ROUNDS: usize = 4;
 /// Largest move of a node per smoothing pass, in units of its spacing.
 pub const MAX_MOVE: f64 = 0.35;
 
@@ -78,26 +78,29 @@ pub fn objective(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
 pub fn dihedral_extremes(a: &P3, b: &P3, c: &P3, d: &P3) -> (f64, f64) {
     let p = [a, b, c, d];
     // outward face normals; face k is opposite corner k
-    let n: Vec<V3> = (0..4)
-        .map(|k| {
-            let f: Vec<&P3> = (0..4).filter(|&i| i != k).map(|i| p[i]).collect();
-            let nn = (f[1] - f[0]).cross(&(f[2] - f[0]));
-            let s = if nn.dot(&(p[k] - f[0])) > 0.0 {
-                -1.0
-            } else {
-                1.0
-            };
-            nn * (s / nn.norm().max(f64::MIN_POSITIVE))
-        })
-        .collect();
-    let (mut lo, mut hi) = (180.0f64, 0.0f64);
+    let mut n = [V3::zeros(); 4];
+    for (k, nk) in n.iter_mut().enumerate() {
+        let f = FACE3[k].map(|i| p[i]);
+        let nn = (f[1] - f[0]).cross(&(f[2] - f[0]));
+        let s = if nn.dot(&(p[k] - f[0])) > 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        *nk = nn * (s / nn.norm().max(f64::MIN_POSITIVE));
+    }
+    // dihedral angle θ_ij = 180° − acos(n_i·n_j): the extremes come from
+    // the extreme dot products, so two acos instead of six
+    let (mut cmin, mut cmax) = (f64::INFINITY, f64::NEG_INFINITY);
     for i in 0..4 {
         for j in i + 1..4 {
-            let ang = 180.0 - n[i].dot(&n[j]).clamp(-1.0, 1.0).acos().to_degrees();
-            lo = lo.min(ang);
-            hi = hi.max(ang);
+            let c = n[i].dot(&n[j]);
+            cmin = cmin.min(c);
+            cmax = cmax.max(c);
         }
     }
+    let lo = 180.0 - cmin.clamp(-1.0, 1.0).acos().to_degrees();
+    let hi = 180.0 - cmax.clamp(-1.0, 1.0).acos().to_degrees();
     (lo, hi)
 }
 
@@ -169,12 +172,14 @@ fn smooth(pos: &mut [P3], movable: &[bool], tets: &[[u32; 4]], d: &[f64]) -> Sli
         ..Default::default()
     };
     let origin: Vec<P3> = pos.to_vec();
+    // the 6 axis and 8 diagonal directions
     let dirs: Vec<V3> = {
         let mut v = Vec::new();
         for x in -1..=1 {
             for y in -1..=1 {
                 for z in -1..=1 {
-                    if (x, y, z) != (0, 0, 0) {
+                    let k = (x != 0) as u8 + (y != 0) as u8 + (z != 0) as u8;
+                    if k == 1 || k == 3 {
                         v.push(V3::new(x as f64, y as f64, z as f64).normalize());
                     }
                 }
@@ -182,6 +187,9 @@ fn smooth(pos: &mut [P3], movable: &[bool], tets: &[[u32; 4]], d: &[f64]) -> Sli
         }
         v
     };
+    // a node whose star the search could not improve is not searched again
+    // in this pass
+    let mut stuck = vec![false; n];
     for _round in 0..ROUNDS {
         // nodes of bad tets, worst first
         let mut work: Vec<(f64, usize)> = Vec::new();
@@ -191,7 +199,7 @@ fn smooth(pos: &mut [P3], movable: &[bool], tets: &[[u32; 4]], d: &[f64]) -> Sli
             if q < TARGET_Q {
                 for &v in t {
                     let v = v as usize;
-                    if movable[v] && !seen[v] {
+                    if movable[v] && !seen[v] && !stuck[v] {
                         seen[v] = true;
                         work.push((q, v));
                     }
@@ -235,7 +243,9 @@ fn smooth(pos: &mut [P3], movable: &[bool], tets: &[[u32; 4]], d: &[f64]) -> Sli
                     step *= 0.5;
                 }
             }
-            if pos[v] != p0 {
+            if pos[v] == p0 {
+                stuck[v] = true;
+            } else {
                 stats.moves += 1;
                 moved_any = true;
             }

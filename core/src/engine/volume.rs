@@ -239,6 +239,11 @@ pub struct VolumeReport {
     pub recovery_removed: usize,
     /// Optimal-Delaunay smoothing iterations ([`super::odt`]).
     pub odt_iterations: usize,
+    /// Seconds in ODT smoothing, the conforming Delaunay connection and
+    /// sliver removal.
+    pub odt_s: f64,
+    pub delaunay_s: f64,
+    pub sliver_s: f64,
     /// Sliver-removal statistics.
     pub slivers: super::sliver::SliverStats,
     pub relax: Option<super::system::RelaxStats>,
@@ -316,10 +321,7 @@ pub(super) fn mesh_volume(
             hi[k] = hi[k].max(p[k]);
         }
     }
-    let packing = std::env::var("BM_PACK")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(VOLUME_PACKING);
+    let packing = VOLUME_PACKING;
     let scaled = Scaled {
         inner: spacing,
         factor: packing,
@@ -384,13 +386,16 @@ pub(super) fn mesh_volume(
     // connection
     let t3 = Instant::now();
     if !opts.fast {
-        let odt_iter = std::env::var("BM_ODT")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(super::odt::ITERATIONS);
-        rep.odt_iterations =
-            super::odt::smooth(&mut sys.pos, n_fixed, &sys.d, &sys.carrier, odt_iter);
+        rep.odt_iterations = super::odt::smooth(
+            &mut sys.pos,
+            n_fixed,
+            &sys.d,
+            &sys.carrier,
+            super::odt::ITERATIONS,
+        );
     }
+    rep.odt_s = t3.elapsed().as_secs_f64();
+    let t = Instant::now();
     let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
         .map_err(|e| MeshError::Invalid(e.to_string()))?;
     rep.recovery_removed = conn.removed;
@@ -399,9 +404,12 @@ pub(super) fn mesh_volume(
     let mut movable: Vec<bool> = (0..pos.len())
         .map(|i| i >= n_fixed && conn.kept[i])
         .collect();
+    rep.delaunay_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     if !opts.fast {
         rep.slivers = super::sliver::improve(&mut pos, &mut movable, &mut tets, &sys.d);
     }
+    rep.sliver_s = t.elapsed().as_secs_f64();
     let mut referenced = vec![false; pos.len()];
     for t in &tets {
         for &v in t {
