@@ -109,6 +109,37 @@ impl<'a, C: Carrier> System<'a, C> {
         }
     }
 
+    /// Re-evaluates d at the bubbles `idx` with one [`Spacing::spacing_batch`]
+    /// call, checking every value.
+    fn respace(&mut self, idx: &[u32]) -> Result<(), MeshError> {
+        if idx.is_empty() {
+            return Ok(());
+        }
+        let entity = self.carrier.entity();
+        let qs: Vec<SpacingQuery> = idx
+            .iter()
+            .map(|&i| SpacingQuery {
+                point: self.pos[i as usize],
+                entity,
+                params: self.params[i as usize],
+            })
+            .collect();
+        let mut out = vec![0.0; qs.len()];
+        self.spacing.spacing_batch(&qs, &mut out);
+        for (k, &i) in idx.iter().enumerate() {
+            let d = out[k];
+            if !(d.is_finite() && d > 0.0) {
+                return Err(MeshError::BadSpacing {
+                    value: d,
+                    point: qs[k].point,
+                    entity,
+                });
+            }
+            self.d[i as usize] = d;
+        }
+        Ok(())
+    }
+
     /// Adds a free bubble at rest.
     pub fn push_free(&mut self, p: P3, params: [f64; 2], d: f64) {
         self.pos.push(p);
@@ -301,6 +332,7 @@ impl<'a, C: Carrier> System<'a, C> {
         let mut stamp = vec![0u32; self.n()];
         let mut cand: Vec<u32> = Vec::new();
         let mut forces: Vec<V3> = Vec::new();
+        let mut respace: Vec<u32> = Vec::new();
         let energy_stride = (self.n() / 5_000).max(1);
         let mut last_energy: Option<f64> = None;
         for step in 1..=s.max_steps {
@@ -365,13 +397,17 @@ impl<'a, C: Carrier> System<'a, C> {
                             None => self.vel[i] = V3::zeros(),
                         }
                         if self.spacing.constant().is_none() {
-                            self.d[i] = self.spacing_at(&self.pos[i], self.params[i])?;
+                            respace.push(i as u32);
                         }
                         let moved = (self.pos[i] - nb.built_pos[i]).norm();
                         if moved > 0.25 * SKIN * self.d[i] {
                             nb.stale = true;
                         }
                     }
+                    // the moved bubbles' new diameters, in one batch (one
+                    // call per step for a plugin spacing)
+                    self.respace(&respace)?;
+                    respace.clear();
                     max_move
                 }
                 Integrator::Rk4 => {
