@@ -258,13 +258,11 @@ fn read_model(path: &Path) -> Result<Model, String> {
         .unwrap_or_default();
     match ext.as_str() {
         "toml" => bubblemesh_analytic::read_domain(path).map_err(|e| e.to_string()),
-        "step" | "stp" => Err(format!(
-            "{}: STEP input is not supported yet (planned: truck-stepio adapter); \
-             describe the domain in the TOML format instead",
-            path.display()
-        )),
+        "step" | "stp" => bubblemesh_truck::read_step(path)
+            .map(|s| s.model)
+            .map_err(|e| e.to_string()),
         _ => Err(format!(
-            "{}: unknown input type '.{ext}'; expected a domain file (.toml)",
+            "{}: unknown input type '.{ext}'; expected a domain file (.toml) or STEP (.step, .stp)",
             path.display()
         )),
     }
@@ -439,8 +437,15 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             .map(|f| format!("{}: {f}", a.input.display()))
     };
     let spacing: &dyn Spacing = spacing.as_ref();
+    // a STEP solid meshes its boundary surfaces by default until volume
+    // meshing of STEP solids exists
+    let is_step = a
+        .input
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("step") || e.eq_ignore_ascii_case("stp"));
     let mut opts = Options {
-        dim: a.dim,
+        dim: a.dim.or((is_step && model.dim() == 3).then_some(2)),
         fast: a.fast,
         ..Default::default()
     };

@@ -21,7 +21,9 @@ pub mod curves;
 pub mod domain;
 pub mod surfaces;
 
-pub use curves::{CircleArc, GeometryError, Line, Nurbs, MAX_NURBS_DEGREE};
+pub use curves::{
+    CircleArc, EllipseArc, GeometryError, HyperbolaArc, Line, Nurbs, MAX_NURBS_DEGREE,
+};
 pub use domain::{parse_domain, read_domain, DomainError, FORMAT};
 pub use surfaces::{
     Cone, Cylinder, Extrusion, Frame, NurbsSurface, Revolution, Sphere, SurfaceError, Torus,

@@ -10,11 +10,15 @@
 //! angles in radians.
 
 mod arc;
+mod ellipse;
+mod hyperbola;
 mod line;
 mod nurbs;
 mod on_surface;
 
 pub use arc::CircleArc;
+pub use ellipse::EllipseArc;
+pub use hyperbola::HyperbolaArc;
 pub use line::Line;
 pub(crate) use nurbs::{basis_derivs, clamped_uniform_knots, find_span};
 pub use nurbs::{Nurbs, MAX_NURBS_DEGREE};

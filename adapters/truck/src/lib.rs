@@ -1,0 +1,22 @@
+//! # bubblemesh-truck
+//!
+//! Real CAD parts as bubblemesh [`Model`](bubblemesh_core::model::Model)s:
+//!
+//! - [`read_step`] / [`parse_step`]: a STEP (ISO 10303-21, AP203/AP214/AP242
+//!   B-rep) file. The file is parsed by truck-stepio's STEP parser (its
+//!   re-exported `ruststep`); every geometric and topological entity is then
+//!   converted here into bubblemesh-analytic geometry. Every `ADVANCED_FACE`,
+//!   `EDGE_CURVE` and `VERTEX_POINT` of the file ends up in the model, or the
+//!   read fails with an error naming the entity (`#id TYPE`) and the reason.
+//!
+//! Not yet done: shells and solids built with truck-modeling (issue 4).
+
+// `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod curve_tools;
+mod face_view;
+pub mod step;
+
+pub use face_view::FaceView;
+pub use step::{parse_step, read_step, StepError, StepInfo, StepModel};

@@ -1,0 +1,540 @@
+//! STEP geometry entities (ISO 10303-42) as bubblemesh-analytic curves and
+//! surfaces.
+
+use std::sync::Arc;
+
+use bubblemesh_analytic::{
+    Cone, Cylinder, Extrusion, Frame, Line, Nurbs, NurbsSurface, Revolution, Sphere, Torus,
+    MAX_NURBS_DEGREE,
+};
+use bubblemesh_core::geom::{Curve, Plane, Surface, P3, V3};
+use truck_stepio::r#in::ruststep::ast::Parameter;
+
+use super::table::Table;
+use super::StepError;
+
+/// Most control points accepted in one curve or surface (guards memory
+/// against hostile files; real parts stay far below).
+pub const MAX_CONTROL_POINTS: usize = 1 << 20;
+
+/// An orthonormal placement (origin; x, y, z).
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
+    pub o: P3,
+    pub x: V3,
+    pub y: V3,
+    pub z: V3,
+}
+
+/// A 3D curve of the file, untrimmed.
+#[derive(Clone, Debug)]
+pub enum CurveGeom {
+    Line { p: P3, d: V3 },
+    Circle { pl: Placement, r: f64 },
+    Ellipse { pl: Placement, a: f64, b: f64 },
+    Hyperbola { pl: Placement, a: f64, b: f64 },
+    Spline(Arc<Nurbs>),
+}
+
+/// A surface of the file.
+pub struct SurfGeom {
+    pub surface: Arc<dyn Surface>,
+    pub planar: bool,
+}
+
+/// Converts geometry with the file's context: its angle unit and extent.
+pub struct Geo<'a> {
+    pub t: &'a Table,
+    /// Radians per plane-angle unit of the file.
+    pub angle: f64,
+    /// Diagonal of the bounding box of all the file's cartesian points
+    /// (sizes infinite lines used as profiles).
+    pub extent: f64,
+}
+
+impl<'a> Geo<'a> {
+    pub fn new(t: &'a Table) -> Self {
+        // plane angle unit: radians unless a conversion-based DEGREE is given
+        let mut angle = 1.0;
+        for e in t.ents.values() {
+            if e.is("PLANE_ANGLE_UNIT") {
+                if let Some(p) = e.part("CONVERSION_BASED_UNIT") {
+                    if let Some(Parameter::String(s)) = p.first() {
+                        if s.to_ascii_uppercase().contains("DEGREE") {
+                            angle = std::f64::consts::PI / 180.0;
+                        }
+                    }
+                }
+            }
+        }
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for e in t.ents.values() {
+            if let Some(p) = e.part("CARTESIAN_POINT") {
+                if let Some(Parameter::List(c)) = p.get(1) {
+                    for (k, x) in c.iter().take(3).enumerate() {
+                        if let Parameter::Real(x) = x {
+                            if x.is_finite() {
+                                lo[k] = lo[k].min(*x);
+                                hi[k] = hi[k].max(*x);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let extent = (0..3)
+            .map(|k| (hi[k] - lo[k]).max(0.0))
+            .map(|d| if d.is_finite() { d * d } else { 0.0 })
+            .sum::<f64>()
+            .sqrt()
+            .max(1.0);
+        Geo { t, angle, extent }
+    }
+
+    pub fn point(&self, id: u64) -> Result<P3, StepError> {
+        let a = self.t.args(id, &["CARTESIAN_POINT"], 2)?;
+        let c = self.t.reals(id, &a[1], "coordinates")?;
+        match c.as_slice() {
+            [x, y, z] => Ok(P3::new(*x, *y, *z)),
+            _ => Err(self.t.err(
+                id,
+                format!("has {} coordinates, a 3D point is needed", c.len()),
+            )),
+        }
+    }
+
+    pub fn direction(&self, id: u64) -> Result<V3, StepError> {
+        let a = self.t.args(id, &["DIRECTION"], 2)?;
+        let c = self.t.reals(id, &a[1], "direction ratios")?;
+        let v = match c.as_slice() {
+            [x, y, z] => V3::new(*x, *y, *z),
+            _ => {
+                return Err(self.t.err(
+                    id,
+                    format!("has {} components, a 3D direction is needed", c.len()),
+                ))
+            }
+        };
+        v.try_normalize(0.0)
+            .ok_or_else(|| self.t.err(id, "is the zero vector"))
+    }
+
+    fn vector(&self, id: u64) -> Result<V3, StepError> {
+        let a = self.t.args(id, &["VECTOR"], 3)?;
+        let d = self.direction(self.t.r(id, &a[1], "orientation")?)?;
+        let m = self.t.real(id, &a[2], "magnitude")?;
+        if !(m > 0.0) {
+            return Err(self.t.err(id, format!("magnitude {m} is not positive")));
+        }
+        Ok(d * m)
+    }
+
+    /// AXIS2_PLACEMENT_3D(name, location, axis?, ref_direction?).
+    pub fn placement(&self, id: u64) -> Result<Placement, StepError> {
+        let a = self.t.args(id, &["AXIS2_PLACEMENT_3D"], 2)?;
+        let o = self.point(self.t.r(id, &a[1], "location")?)?;
+        let opt = |k: usize, what: &str, dflt: V3| -> Result<V3, StepError> {
+            match a.get(k) {
+                None | Some(Parameter::NotProvided) | Some(Parameter::Omitted) => Ok(dflt),
+                Some(p) => self.direction(self.t.r(id, p, what)?),
+            }
+        };
+        let z = opt(2, "axis", V3::z())?;
+        let r = opt(3, "ref_direction", V3::x())?;
+        let x = (r - z * z.dot(&r)).try_normalize(1e-9).or_else(|| {
+            // a reference along the axis: any perpendicular (ISO 10303-42 §4.4.4)
+            let alt = if z.x.abs() < 0.9 { V3::x() } else { V3::y() };
+            (alt - z * z.dot(&alt)).try_normalize(0.0)
+        });
+        let x = x.ok_or_else(|| self.t.err(id, "degenerate axes"))?;
+        Ok(Placement {
+            o,
+            x,
+            y: z.cross(&x),
+            z,
+        })
+    }
+
+    /// AXIS1_PLACEMENT(name, location, axis?).
+    fn axis1(&self, id: u64) -> Result<(P3, V3), StepError> {
+        let a = self.t.args(id, &["AXIS1_PLACEMENT"], 2)?;
+        let o = self.point(self.t.r(id, &a[1], "location")?)?;
+        let z = match a.get(2) {
+            None | Some(Parameter::NotProvided) | Some(Parameter::Omitted) => V3::z(),
+            Some(p) => self.direction(self.t.r(id, p, "axis")?)?,
+        };
+        Ok((o, z))
+    }
+
+    fn positive(&self, id: u64, p: &Parameter, what: &str) -> Result<f64, StepError> {
+        let r = self.t.real(id, p, what)?;
+        if !(r > 0.0) {
+            return Err(self.t.err(id, format!("{what} {r} is not positive")));
+        }
+        Ok(r)
+    }
+
+    /// A 3D curve (the 3D curve of a SURFACE_CURVE / SEAM_CURVE, the basis
+    /// of a TRIMMED_CURVE: edges are trimmed to their vertices anyway).
+    pub fn curve(&self, id: u64) -> Result<CurveGeom, StepError> {
+        self.curve_depth(id, 0)
+    }
+
+    fn curve_depth(&self, id: u64, depth: usize) -> Result<CurveGeom, StepError> {
+        if depth > 8 {
+            return Err(self.t.err(id, "curve references nest too deeply"));
+        }
+        let e = self.t.get(id)?;
+        if e.is("LINE") {
+            let a = self.t.args(id, &["LINE"], 3)?;
+            let p = self.point(self.t.r(id, &a[1], "pnt")?)?;
+            let d = self.vector(self.t.r(id, &a[2], "dir")?)?;
+            return Ok(CurveGeom::Line { p, d });
+        }
+        if e.is("CIRCLE") {
+            let a = self.t.args(id, &["CIRCLE"], 3)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let r = self.positive(id, &a[2], "radius")?;
+            return Ok(CurveGeom::Circle { pl, r });
+        }
+        if e.is("ELLIPSE") {
+            let a = self.t.args(id, &["ELLIPSE"], 4)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let s1 = self.positive(id, &a[2], "semi_axis_1")?;
+            let s2 = self.positive(id, &a[3], "semi_axis_2")?;
+            return Ok(CurveGeom::Ellipse { pl, a: s1, b: s2 });
+        }
+        if e.is("HYPERBOLA") {
+            let a = self.t.args(id, &["HYPERBOLA"], 4)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let s1 = self.positive(id, &a[2], "semi_axis")?;
+            let s2 = self.positive(id, &a[3], "semi_imag_axis")?;
+            return Ok(CurveGeom::Hyperbola { pl, a: s1, b: s2 });
+        }
+        if e.is("SURFACE_CURVE") || e.is("SEAM_CURVE") {
+            let a = self.t.args(id, &["SURFACE_CURVE", "SEAM_CURVE"], 2)?;
+            return self.curve_depth(self.t.r(id, &a[1], "curve_3d")?, depth + 1);
+        }
+        if e.is("TRIMMED_CURVE") {
+            let a = self.t.args(id, &["TRIMMED_CURVE"], 2)?;
+            return self.curve_depth(self.t.r(id, &a[1], "basis_curve")?, depth + 1);
+        }
+        if e.is("B_SPLINE_CURVE_WITH_KNOTS") {
+            return Ok(CurveGeom::Spline(Arc::new(self.spline_curve(id)?)));
+        }
+        Err(self.t.err(
+            id,
+            "unsupported curve type (supported: LINE, CIRCLE, ELLIPSE, HYPERBOLA, B_SPLINE_CURVE_WITH_KNOTS \
+             and its rational form, SURFACE_CURVE, SEAM_CURVE, TRIMMED_CURVE)",
+        ))
+    }
+
+    /// Knots × multiplicities, checked against the degree and count.
+    fn knots(
+        &self,
+        id: u64,
+        mults: &Parameter,
+        knots: &Parameter,
+        p: usize,
+        n: usize,
+        dir: &str,
+    ) -> Result<Vec<f64>, StepError> {
+        let m: Vec<i64> = self
+            .t
+            .list(id, mults, "knot_multiplicities")?
+            .iter()
+            .map(|x| self.t.int(id, x, "knot multiplicity"))
+            .collect::<Result<_, _>>()?;
+        let k = self.t.reals(id, knots, "knots")?;
+        if m.len() != k.len() {
+            return Err(self.t.err(
+                id,
+                format!("{dir}{} knot multiplicities for {} knots", m.len(), k.len()),
+            ));
+        }
+        if let Some(bad) = m.iter().find(|&&x| x < 1 || x as usize > p + 1) {
+            return Err(self.t.err(
+                id,
+                format!(
+                    "{dir}knot multiplicity {bad} outside 1..=degree+1 ({})",
+                    p + 1
+                ),
+            ));
+        }
+        let total: usize = m.iter().map(|&x| x as usize).sum();
+        if total != n + p + 1 {
+            return Err(self.t.err(
+                id,
+                format!(
+                    "{dir}{total} knots (with multiplicity), but degree {p} with {n} control points needs {}",
+                    n + p + 1
+                ),
+            ));
+        }
+        let mut out = Vec::with_capacity(total);
+        for (x, c) in k.iter().zip(&m) {
+            out.extend(std::iter::repeat(*x).take(*c as usize));
+        }
+        Ok(out)
+    }
+
+    fn degree(&self, id: u64, p: &Parameter, what: &str) -> Result<usize, StepError> {
+        let d = self.t.int(id, p, what)?;
+        if d < 1 || d as usize > MAX_NURBS_DEGREE {
+            return Err(self.t.err(
+                id,
+                format!("{what} {d} outside the supported 1..={MAX_NURBS_DEGREE}"),
+            ));
+        }
+        Ok(d as usize)
+    }
+
+    /// B_SPLINE_CURVE_WITH_KNOTS, simple or in a complex instance with
+    /// B_SPLINE_CURVE and RATIONAL_B_SPLINE_CURVE.
+    fn spline_curve(&self, id: u64) -> Result<Nurbs, StepError> {
+        let e = self.t.get(id)?;
+        let (deg, pts, mults, knots) = if let Some(b) = e.part("B_SPLINE_CURVE") {
+            let k = e
+                .part("B_SPLINE_CURVE_WITH_KNOTS")
+                .ok_or_else(|| self.t.err(id, "missing B_SPLINE_CURVE_WITH_KNOTS part"))?;
+            if b.len() < 2 || k.len() < 2 {
+                return Err(self.t.err(id, "too few B-spline parameters"));
+            }
+            (&b[0], &b[1], &k[0], &k[1])
+        } else {
+            let a = self.t.args(id, &["B_SPLINE_CURVE_WITH_KNOTS"], 8)?;
+            (&a[1], &a[2], &a[6], &a[7])
+        };
+        let p = self.degree(id, deg, "degree")?;
+        let ids = self.t.refs(id, pts, "control_points_list")?;
+        if ids.len() > MAX_CONTROL_POINTS {
+            return Err(self.t.err(
+                id,
+                format!("{} control points (limit {MAX_CONTROL_POINTS})", ids.len()),
+            ));
+        }
+        let points: Vec<P3> = ids
+            .iter()
+            .map(|&q| self.point(q))
+            .collect::<Result<_, _>>()?;
+        let knots = self.knots(id, mults, knots, p, points.len(), "")?;
+        let weights = match e.part("RATIONAL_B_SPLINE_CURVE") {
+            Some(w) if !w.is_empty() => Some(self.t.reals(id, &w[0], "weights_data")?),
+            _ => None,
+        };
+        Nurbs::new(p, points, weights, knots).map_err(|g| self.t.err(id, g.to_string()))
+    }
+
+    fn spline_surface(&self, id: u64) -> Result<NurbsSurface, StepError> {
+        let e = self.t.get(id)?;
+        let (du, dv, pts, um, vm, uk, vk) = if let Some(b) = e.part("B_SPLINE_SURFACE") {
+            let k = e
+                .part("B_SPLINE_SURFACE_WITH_KNOTS")
+                .ok_or_else(|| self.t.err(id, "missing B_SPLINE_SURFACE_WITH_KNOTS part"))?;
+            if b.len() < 3 || k.len() < 4 {
+                return Err(self.t.err(id, "too few B-spline surface parameters"));
+            }
+            (&b[0], &b[1], &b[2], &k[0], &k[1], &k[2], &k[3])
+        } else {
+            let a = self.t.args(id, &["B_SPLINE_SURFACE_WITH_KNOTS"], 12)?;
+            (&a[1], &a[2], &a[3], &a[8], &a[9], &a[10], &a[11])
+        };
+        let p = self.degree(id, du, "u_degree")?;
+        let q = self.degree(id, dv, "v_degree")?;
+        let rows = self.t.list(id, pts, "control_points_list")?;
+        let mut count = 0usize;
+        let mut net = Vec::with_capacity(rows.len());
+        for row in rows {
+            let ids = self.t.refs(id, row, "control point row")?;
+            count += ids.len();
+            if count > MAX_CONTROL_POINTS {
+                return Err(self
+                    .t
+                    .err(id, format!("more than {MAX_CONTROL_POINTS} control points")));
+            }
+            net.push(
+                ids.iter()
+                    .map(|&x| self.point(x))
+                    .collect::<Result<Vec<_>, _>>()?,
+            );
+        }
+        let nu = net.len();
+        let nv = net.first().map_or(0, |r| r.len());
+        let ku = self.knots(id, um, uk, p, nu, "u: ")?;
+        let kv = self.knots(id, vm, vk, q, nv, "v: ")?;
+        let weights = match e.part("RATIONAL_B_SPLINE_SURFACE") {
+            Some(w) if !w.is_empty() => Some(
+                self.t
+                    .list(id, &w[0], "weights_data")?
+                    .iter()
+                    .map(|r| self.t.reals(id, r, "weights row"))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            _ => None,
+        };
+        NurbsSurface::new(p, q, net, weights, ku, kv).map_err(|g| self.t.err(id, g.to_string()))
+    }
+
+    /// A profile curve over a finite interval (a line becomes a segment of
+    /// ±4 file extents around its point).
+    fn profile(&self, id: u64) -> Result<Arc<dyn Curve>, StepError> {
+        let c = self.curve(id)?;
+        let bad = |g: bubblemesh_analytic::GeometryError| self.t.err(id, g.to_string());
+        Ok(match c {
+            CurveGeom::Line { p, d } => {
+                let l = 4.0 * self.extent / d.norm();
+                Arc::new(Line::new(p - d * l, p + d * l).map_err(bad)?)
+            }
+            CurveGeom::Circle { pl, r } => Arc::new(
+                bubblemesh_analytic::CircleArc::with_basis(
+                    pl.o,
+                    pl.x,
+                    pl.y,
+                    r,
+                    0.0,
+                    std::f64::consts::TAU,
+                )
+                .map_err(bad)?,
+            ),
+            CurveGeom::Ellipse { pl, a, b } => Arc::new(
+                bubblemesh_analytic::EllipseArc::new(
+                    pl.o,
+                    pl.x,
+                    pl.y,
+                    a,
+                    b,
+                    0.0,
+                    std::f64::consts::TAU,
+                )
+                .map_err(bad)?,
+            ),
+            CurveGeom::Hyperbola { .. } => {
+                return Err(self
+                    .t
+                    .err(id, "a HYPERBOLA as a swept profile is not supported"))
+            }
+            CurveGeom::Spline(n) => n,
+        })
+    }
+
+    /// A surface.
+    pub fn surface(&self, id: u64) -> Result<SurfGeom, StepError> {
+        self.surface_depth(id, 0)
+    }
+
+    fn surface_depth(&self, id: u64, depth: usize) -> Result<SurfGeom, StepError> {
+        if depth > 8 {
+            return Err(self.t.err(id, "surface references nest too deeply"));
+        }
+        let e = self.t.get(id)?;
+        let bad = |g: bubblemesh_analytic::SurfaceError| self.t.err(id, g.to_string());
+        let frame = |pl: &Placement| {
+            Frame::with_reference(pl.o, pl.z, pl.x).map_err(|g| self.t.err(id, g.to_string()))
+        };
+        let curved = |s: Arc<dyn Surface>| {
+            Ok(SurfGeom {
+                surface: s,
+                planar: false,
+            })
+        };
+        if e.is("PLANE") {
+            let a = self.t.args(id, &["PLANE"], 2)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            return Ok(SurfGeom {
+                surface: Arc::new(Plane {
+                    origin: pl.o,
+                    e1: pl.x,
+                    e2: pl.y,
+                }),
+                planar: true,
+            });
+        }
+        if e.is("CYLINDRICAL_SURFACE") {
+            let a = self.t.args(id, &["CYLINDRICAL_SURFACE"], 3)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let r = self.positive(id, &a[2], "radius")?;
+            let c = Cylinder::with_frame(frame(&pl)?, r, [f64::NEG_INFINITY, f64::INFINITY])
+                .map_err(bad)?;
+            return curved(Arc::new(c));
+        }
+        if e.is("CONICAL_SURFACE") {
+            let a = self.t.args(id, &["CONICAL_SURFACE"], 4)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let r = self.t.real(id, &a[2], "radius")?;
+            let alpha = self.t.real(id, &a[3], "semi_angle")? * self.angle;
+            if !(r >= 0.0) || !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
+                return Err(self.t.err(
+                    id,
+                    format!("radius {r} or semi-angle {alpha} rad out of range"),
+                ));
+            }
+            // S = C + (R + h tan α)(cos u x + sin u y) + h z: apex at h = −R / tan α
+            let apex = pl.o - pl.z * (r / alpha.tan());
+            let f = Frame::with_reference(apex, pl.z, pl.x)
+                .map_err(|g| self.t.err(id, g.to_string()))?;
+            let c = Cone::with_frame(f, alpha, [0.0, f64::INFINITY]).map_err(bad)?;
+            return curved(Arc::new(c));
+        }
+        if e.is("SPHERICAL_SURFACE") {
+            let a = self.t.args(id, &["SPHERICAL_SURFACE"], 3)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let r = self.positive(id, &a[2], "radius")?;
+            return curved(Arc::new(Sphere::with_frame(frame(&pl)?, r).map_err(bad)?));
+        }
+        if e.is("TOROIDAL_SURFACE") {
+            let a = self.t.args(id, &["TOROIDAL_SURFACE"], 4)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let big = self.positive(id, &a[2], "major_radius")?;
+            let small = self.positive(id, &a[3], "minor_radius")?;
+            if big > small {
+                return curved(Arc::new(
+                    Torus::with_frame(frame(&pl)?, big, small).map_err(bad)?,
+                ));
+            }
+            // a horn or spindle torus (a fillet whose radius reaches the
+            // axis): the tube circle revolved about the axis
+            let tube = bubblemesh_analytic::CircleArc::with_basis(
+                pl.o + pl.x * big,
+                pl.x,
+                pl.z,
+                small,
+                0.0,
+                std::f64::consts::TAU,
+            )
+            .map_err(|g| self.t.err(id, g.to_string()))?;
+            return curved(Arc::new(
+                Revolution::new(Arc::new(tube), pl.o, pl.z).map_err(bad)?,
+            ));
+        }
+        if e.is("B_SPLINE_SURFACE_WITH_KNOTS") {
+            return curved(Arc::new(self.spline_surface(id)?));
+        }
+        if e.is("SURFACE_OF_REVOLUTION") {
+            let a = self.t.args(id, &["SURFACE_OF_REVOLUTION"], 3)?;
+            let prof = self.profile(self.t.r(id, &a[1], "swept_curve")?)?;
+            let (o, z) = self.axis1(self.t.r(id, &a[2], "axis_position")?)?;
+            return curved(Arc::new(Revolution::new(prof, o, z).map_err(bad)?));
+        }
+        if e.is("SURFACE_OF_LINEAR_EXTRUSION") {
+            let a = self.t.args(id, &["SURFACE_OF_LINEAR_EXTRUSION"], 3)?;
+            let prof = self.profile(self.t.r(id, &a[1], "swept_curve")?)?;
+            let d = self.vector(self.t.r(id, &a[2], "extrusion_axis")?)?;
+            let l = 4.0 * self.extent / d.norm();
+            return curved(Arc::new(
+                Extrusion::with_range(prof, d, [-l, l]).map_err(bad)?,
+            ));
+        }
+        if e.is("RECTANGULAR_TRIMMED_SURFACE") {
+            // the face's loops trim it anyway
+            let a = self.t.args(id, &["RECTANGULAR_TRIMMED_SURFACE"], 2)?;
+            return self.surface_depth(self.t.r(id, &a[1], "basis_surface")?, depth + 1);
+        }
+        Err(self.t.err(
+            id,
+            "unsupported surface type (supported: PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, \
+             SPHERICAL_SURFACE, TOROIDAL_SURFACE, B_SPLINE_SURFACE_WITH_KNOTS and its rational \
+             form, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION, RECTANGULAR_TRIMMED_SURFACE)",
+        ))
+    }
+}
