@@ -82,7 +82,11 @@ impl Voxels {
         }
         // one voxel of margin on every side so the border is outside
         lo -= V3::repeat(h);
-        while (0..3).map(|a| ((ext[a] + 2.0 * h) / h).ceil() + 1.0).product::<f64>() > cap {
+        while (0..3)
+            .map(|a| ((ext[a] + 2.0 * h) / h).ceil() + 1.0)
+            .product::<f64>()
+            > cap
+        {
             h *= 1.25;
         }
         let lo = lo;
@@ -291,7 +295,11 @@ impl Shell {
                     vx.lo.y + (j as f64 + 0.5) * h,
                     vx.lo.z + (k as f64 + 0.5) * h,
                 );
-                let st = if shell.ray_inside(&centre) { INSIDE } else { OUTSIDE };
+                let st = if shell.ray_inside(&centre) {
+                    INSIDE
+                } else {
+                    OUTSIDE
+                };
                 let mut stack = vec![seed];
                 vx.state[seed] = st;
                 while let Some(c) = stack.pop() {
