@@ -162,6 +162,12 @@ pub struct SurfacePoints<'a> {
     pub periods: [Option<f64>; 2],
     /// Start of the fundamental domain.
     pub origin: [f64; 2],
+    /// Typical lengths |S_u|, |S_v| of the parameter derivatives: (u,v) is
+    /// triangulated as (u·scale₀, v·scale₁), so that the Delaunay
+    /// triangulation in parameter space is close to the one on the surface
+    /// (on a cylinder of radius r, u is in radians and v in model units:
+    /// unscaled, the triangulation of a thick cylinder degenerates).
+    pub scale: [f64; 2],
 }
 
 /// Triangulation of a curved, possibly periodic face.
@@ -181,6 +187,25 @@ pub fn triangulate_surface(
     segments: &[[usize; 2]],
     boundary: &[[usize; 2]],
 ) -> Result<Vec<[usize; 3]>, ConnectError> {
+    let sc = pts
+        .scale
+        .map(|x| if x.is_finite() && x > 0.0 { x } else { 1.0 });
+    let scaled_uv: Vec<[f64; 2]> = pts
+        .uv
+        .iter()
+        .map(|q| [q[0] * sc[0], q[1] * sc[1]])
+        .collect();
+    let scaled = SurfacePoints {
+        uv: &scaled_uv,
+        periods: [
+            pts.periods[0].map(|p| p * sc[0]),
+            pts.periods[1].map(|p| p * sc[1]),
+        ],
+        origin: [pts.origin[0] * sc[0], pts.origin[1] * sc[1]],
+        scale: [1.0, 1.0],
+        ..*pts
+    };
+    let pts = &scaled;
     let n = pts.uv.len();
     // --- padded copies of the regular points
     let shifts_of = |uv: [f64; 2]| -> Vec<[f64; 2]> {

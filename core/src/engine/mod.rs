@@ -335,6 +335,28 @@ pub fn mesh_model(
     Ok((mesh, report))
 }
 
+/// Median |S_u| and |S_v| over the points `uv` (a sample of at most 257),
+/// for [`connect::SurfacePoints::scale`].
+fn parameter_scale(surface: &dyn crate::geom::Surface, uv: &[[f64; 2]]) -> [f64; 2] {
+    let step = (uv.len() / 257).max(1);
+    let mut su: Vec<f64> = Vec::new();
+    let mut sv: Vec<f64> = Vec::new();
+    for q in uv.iter().step_by(step) {
+        let d = surface.derivs(q[0], q[1]);
+        let (a, b) = (d.su.norm(), d.sv.norm());
+        if a.is_finite() && a > 0.0 && b.is_finite() && b > 0.0 {
+            su.push(a);
+            sv.push(b);
+        }
+    }
+    if su.is_empty() {
+        return [1.0, 1.0];
+    }
+    su.sort_by(|a, b| a.total_cmp(b));
+    sv.sort_by(|a, b| a.total_cmp(b));
+    [su[su.len() / 2], sv[sv.len() / 2]]
+}
+
 /// Orients the triangles of each volume's faces outward (the first volume
 /// that claims a face decides). A volume whose faces do not close is an
 /// error when `strict` (volume meshing needs it), else left as meshed.
@@ -922,6 +944,7 @@ fn mesh_face(
             singular: &singular,
             periods,
             origin: domain_box(surface).0,
+            scale: parameter_scale(surface, &sys.params),
         };
         connect::triangulate_surface(&pts, &segments, &boundary)?
     };
