@@ -162,3 +162,53 @@ fn cube_and_loft_mesh_closed() {
         );
     }
 }
+
+/// Regression: a whole sphere bounded only by the VERTEX_LOOP at its pole
+/// (OCCT writes a ball this way) used to get a (u,v) range collapsed to the
+/// pole's latitude and failed to mesh. It must mesh closed, into
+/// tetrahedra too, with the void of `void_box` left empty.
+#[test]
+fn whole_sphere_bounded_by_a_vertex_loop_meshes() {
+    let m = manifest();
+    for (name, size, dim) in [("ball", 0.25, 2u8), ("void_box", 3.0, 3u8)] {
+        let p = m["parts"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap();
+        let s = read_step(&root().join("fixtures").join(p["file"].as_str().unwrap())).unwrap();
+        let opts = Options {
+            dim: Some(dim),
+            ..Default::default()
+        };
+        let (mesh, _) = mesh_model(&s.model, &Constant(size), &opts).unwrap();
+        let (closed, vol) = closed_and_volume(&mesh);
+        assert!(closed, "{name}: not closed");
+        let cad = p["volume"].as_f64().unwrap();
+        // oriented outward per closed shell: the signed volume is the solid's
+        assert!(vol > 0.0, "{name}: surface not oriented outward ({vol})");
+        assert!(
+            (vol / cad - 1.0).abs() < 0.03,
+            "{name}: volume {vol} vs CAD {cad}"
+        );
+        if dim == 3 {
+            let tets: f64 = mesh
+                .tetrahedra
+                .iter()
+                .map(|t| {
+                    let [a, b, c, d] = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+                    (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
+                })
+                .sum();
+            assert!(mesh.tetrahedra.iter().all(|t| {
+                let [a, b, c, d] = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+                (b - a).dot(&(c - a).cross(&(d - a))) > 0.0
+            }));
+            assert!(
+                ((tets - vol) / vol).abs() < 1e-9,
+                "{name}: tets {tets} vs surface {vol}"
+            );
+        }
+    }
+}

@@ -727,12 +727,19 @@ fn build_face(
         if keep[c] {
             continue;
         }
-        let vals: Vec<f64> = loops_uv
-            .iter()
-            .flatten()
-            .chain(&extra)
-            .map(|x| x[c])
-            .collect();
+        // a face without edge loops (a whole sphere bounded only by the
+        // VERTEX_LOOP at its pole) spans the surface's whole range: its
+        // pole points alone would collapse the range to a line
+        let vals: Vec<f64> = if loops_uv.iter().any(|l| !l.is_empty()) {
+            loops_uv
+                .iter()
+                .flatten()
+                .chain(&extra)
+                .map(|x| x[c])
+                .collect()
+        } else {
+            Vec::new()
+        };
         if vals.is_empty() {
             if !(bdom[c][0].is_finite() && bdom[c][1].is_finite()) {
                 return Err(t.err(f.id, "a face with no boundary on an unbounded surface"));
