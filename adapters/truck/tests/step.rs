@@ -170,7 +170,7 @@ fn cube_and_loft_mesh_closed() {
 #[test]
 fn whole_sphere_bounded_by_a_vertex_loop_meshes() {
     let m = manifest();
-    for (name, size, dim) in [("ball", 0.25, 2u8), ("void_box", 3.0, 3u8)] {
+    for (name, size, dim) in [("ball", 0.25, 2u8), ("void_box", 1.5, 3u8)] {
         let p = m["parts"]
             .as_array()
             .unwrap()
