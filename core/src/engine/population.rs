@@ -63,48 +63,12 @@ pub fn control<C: Carrier>(
     let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
-    // adjacency in compressed rows
-    let mut deg = vec![0u32; n + 1];
-    for p in pairs {
-        deg[p.i as usize + 1] += 1;
-        deg[p.j as usize + 1] += 1;
-    }
-    for k in 0..n {
-        deg[k + 1] += deg[k];
-    }
-    let mut fill = deg.clone();
-    let mut adj = vec![0u32; deg[n] as usize];
-    for p in pairs {
-        adj[fill[p.i as usize] as usize] = p.j;
-        fill[p.i as usize] += 1;
-        adj[fill[p.j as usize] as usize] = p.i;
-        fill[p.j as usize] += 1;
-    }
-    let mut excess = vec![0.0f64; n];
-    for p in pairs {
-        let o = (1.0 - p.w).max(0.0);
-        excess[p.i as usize] += o;
-        excess[p.j as usize] += o;
-    }
-
-    // --- deletion: an independent set of the most crowded bubbles
-    let mut cand: Vec<usize> = (nf..n)
-        .filter(|&i| focused(i) && excess[i] > EXCESS)
-        .collect();
-    cand.sort_by(|&a, &b| excess[b].total_cmp(&excess[a]));
-    let mut deleted = vec![false; n];
-    let mut blocked = vec![false; n];
-    let mut to_delete = Vec::new();
-    for i in cand {
-        if blocked[i] {
-            continue;
-        }
-        deleted[i] = true;
-        to_delete.push(i);
-        for &j in &adj[deg[i] as usize..deg[i + 1] as usize] {
-            blocked[j as usize] = true;
-        }
-    }
+    let Crowding {
+        deg,
+        adj,
+        deleted,
+        mut to_delete,
+    } = crowding(n, nf, pairs, &focused, EXCESS);
 
     // --- insertion
     let mut new_bubbles: Vec<(P3, [f64; 2], f64)> = Vec::new();
@@ -202,6 +166,70 @@ pub fn control<C: Carrier>(
     Ok((to_delete.len(), added))
 }
 
+/// The pair adjacency in compressed rows and the deletion step shared by
+/// [`control`] and [`control_volume`]: an independent set of the free
+/// bubbles whose excess ratio exceeds `excess_limit`, most crowded first.
+struct Crowding {
+    deg: Vec<u32>,
+    adj: Vec<u32>,
+    deleted: Vec<bool>,
+    to_delete: Vec<usize>,
+}
+
+fn crowding(
+    n: usize,
+    nf: usize,
+    pairs: &[Pair],
+    focused: &impl Fn(usize) -> bool,
+    excess_limit: f64,
+) -> Crowding {
+    let mut deg = vec![0u32; n + 1];
+    for p in pairs {
+        deg[p.i as usize + 1] += 1;
+        deg[p.j as usize + 1] += 1;
+    }
+    for k in 0..n {
+        deg[k + 1] += deg[k];
+    }
+    let mut fill = deg.clone();
+    let mut adj = vec![0u32; deg[n] as usize];
+    for p in pairs {
+        adj[fill[p.i as usize] as usize] = p.j;
+        fill[p.i as usize] += 1;
+        adj[fill[p.j as usize] as usize] = p.i;
+        fill[p.j as usize] += 1;
+    }
+    let mut excess = vec![0.0f64; n];
+    for p in pairs {
+        let o = (1.0 - p.w).max(0.0);
+        excess[p.i as usize] += o;
+        excess[p.j as usize] += o;
+    }
+    let mut cand: Vec<usize> = (nf..n)
+        .filter(|&i| focused(i) && excess[i] > excess_limit)
+        .collect();
+    cand.sort_by(|&a, &b| excess[b].total_cmp(&excess[a]));
+    let mut deleted = vec![false; n];
+    let mut blocked = vec![false; n];
+    let mut to_delete = Vec::new();
+    for i in cand {
+        if blocked[i] {
+            continue;
+        }
+        deleted[i] = true;
+        to_delete.push(i);
+        for &j in &adj[deg[i] as usize..deg[i + 1] as usize] {
+            blocked[j as usize] = true;
+        }
+    }
+    Crowding {
+        deg,
+        adj,
+        deleted,
+        to_delete,
+    }
+}
+
 /// Whether no existing or newly placed bubble is closer than
 /// `fit`·(d + d_k)/2 to `p`.
 #[allow(clippy::too_many_arguments)]
@@ -289,45 +317,12 @@ pub fn control_volume<C: Carrier>(
     let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
-    let mut deg = vec![0u32; n + 1];
-    for p in pairs {
-        deg[p.i as usize + 1] += 1;
-        deg[p.j as usize + 1] += 1;
-    }
-    for k in 0..n {
-        deg[k + 1] += deg[k];
-    }
-    let mut fill = deg.clone();
-    let mut adj = vec![0u32; deg[n] as usize];
-    for p in pairs {
-        adj[fill[p.i as usize] as usize] = p.j;
-        fill[p.i as usize] += 1;
-        adj[fill[p.j as usize] as usize] = p.i;
-        fill[p.j as usize] += 1;
-    }
-    let mut excess = vec![0.0f64; n];
-    for p in pairs {
-        let o = (1.0 - p.w).max(0.0);
-        excess[p.i as usize] += o;
-        excess[p.j as usize] += o;
-    }
-    let mut cand: Vec<usize> = (nf..n)
-        .filter(|&i| focused(i) && excess[i] > EXCESS_3D)
-        .collect();
-    cand.sort_by(|&a, &b| excess[b].total_cmp(&excess[a]));
-    let mut deleted = vec![false; n];
-    let mut blocked = vec![false; n];
-    let mut to_delete = Vec::new();
-    for i in cand {
-        if blocked[i] {
-            continue;
-        }
-        deleted[i] = true;
-        to_delete.push(i);
-        for &j in &adj[deg[i] as usize..deg[i + 1] as usize] {
-            blocked[j as usize] = true;
-        }
-    }
+    let Crowding {
+        deg,
+        adj,
+        deleted,
+        mut to_delete,
+    } = crowding(n, nf, pairs, &focused, EXCESS_3D);
 
     let dirs = sphere_directions(96);
     let cos_gap = GAP_ANGLE_3D.cos();
