@@ -67,7 +67,7 @@ pub fn control<C: Carrier>(
         deg,
         adj,
         deleted,
-        mut to_delete,
+        to_delete,
     } = crowding(n, nf, pairs, &focused, EXCESS);
 
     // --- insertion
@@ -154,16 +154,7 @@ pub fn control<C: Carrier>(
         }
     }
 
-    // apply: delete from the back so swap-remove does not disturb pending ids
-    to_delete.sort_unstable_by(|a, b| b.cmp(a));
-    for &i in &to_delete {
-        sys.remove_free(i);
-    }
-    let added = new_bubbles.len();
-    for (p, uv, d) in new_bubbles {
-        sys.push_free(p, uv, d);
-    }
-    Ok((to_delete.len(), added))
+    Ok(apply(sys, to_delete, new_bubbles))
 }
 
 /// The pair adjacency in compressed rows and the deletion step shared by
@@ -228,6 +219,24 @@ fn crowding(
         deleted,
         to_delete,
     }
+}
+
+/// Applies one round: deletes from the back so swap-remove does not disturb
+/// pending ids, then adds the new bubbles. Returns (deleted, added).
+fn apply<C: Carrier>(
+    sys: &mut System<'_, C>,
+    mut to_delete: Vec<usize>,
+    new_bubbles: Vec<(P3, [f64; 2], f64)>,
+) -> (usize, usize) {
+    to_delete.sort_unstable_by(|a, b| b.cmp(a));
+    for &i in &to_delete {
+        sys.remove_free(i);
+    }
+    let added = new_bubbles.len();
+    for (p, uv, d) in new_bubbles {
+        sys.push_free(p, uv, d);
+    }
+    (to_delete.len(), added)
 }
 
 /// Whether no existing or newly placed bubble is closer than
@@ -321,7 +330,7 @@ pub fn control_volume<C: Carrier>(
         deg,
         adj,
         deleted,
-        mut to_delete,
+        to_delete,
     } = crowding(n, nf, pairs, &focused, EXCESS_3D);
 
     let dirs = sphere_directions(96);
@@ -426,13 +435,5 @@ pub fn control_volume<C: Carrier>(
             }
         }
     }
-    to_delete.sort_unstable_by(|a, b| b.cmp(a));
-    for &i in &to_delete {
-        sys.remove_free(i);
-    }
-    let added = new_bubbles.len();
-    for (p, uv, d) in new_bubbles {
-        sys.push_free(p, uv, d);
-    }
-    Ok((to_delete.len(), added))
+    Ok(apply(sys, to_delete, new_bubbles))
 }
