@@ -10,6 +10,14 @@
 //! the face's own boundary closes through it (a full cylinder, a torus ring)
 //! and otherwise presents the non-periodic box of the face's (u,v) — with u
 //! unwrapped across the surface's seam where the face straddles it.
+//!
+//! A view may also *turn* the parameter plane by half a turn, (u,v) ↦
+//! (−u, −v). The engine classifies a point of a face that wraps around its
+//! surface in u by the parity of the boundary loops met along +v, so it
+//! reads the face as ending below its highest wrapping loop; a face that
+//! runs from its loop up to a pole at the top of its v range (a spherical
+//! cap around the north pole) is presented turned, with the pole at the
+//! bottom. The half turn keeps the orientation: S_u′ × S_v′ = S_u × S_v.
 
 use std::sync::Arc;
 
@@ -24,11 +32,17 @@ use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3};
 /// finite interval of width at most the period and [`Surface::inverse`]
 /// returns parameters shifted by a multiple of the period into (or nearest
 /// to) it.
+///
+/// With `turned`, the view's parameters are (u′, v′) = (−u, −v) of the
+/// inner surface's (u, v); `domain` is always given in the inner
+/// surface's parameters.
 #[derive(Debug, Clone)]
 pub struct FaceView {
     inner: Arc<dyn Surface>,
+    /// In the inner surface's parameters.
     domain: ([f64; 2], [f64; 2]),
     periods: [Option<f64>; 2],
+    turned: bool,
 }
 
 impl FaceView {
@@ -42,6 +56,24 @@ impl FaceView {
             inner,
             domain,
             periods,
+            turned: false,
+        }
+    }
+
+    /// The same view with its parameter plane turned by half a turn (type
+    /// documentation).
+    pub fn turned(mut self) -> Self {
+        self.turned = !self.turned;
+        self
+    }
+
+    /// Inner parameters of view parameters (and back: the map is an
+    /// involution).
+    fn map(&self, u: f64, v: f64) -> (f64, f64) {
+        if self.turned {
+            (-u, -v)
+        } else {
+            (u, v)
         }
     }
 
@@ -53,15 +85,55 @@ impl FaceView {
 
 impl Surface for FaceView {
     fn domain(&self) -> ([f64; 2], [f64; 2]) {
-        self.domain
+        let (u, v) = self.domain;
+        if self.turned {
+            ([-u[1], -u[0]], [-v[1], -v[0]])
+        } else {
+            (u, v)
+        }
     }
     fn point(&self, u: f64, v: f64) -> P3 {
+        let (u, v) = self.map(u, v);
         self.inner.point(u, v)
     }
+    /// With the half turn the first partials change sign and the second
+    /// ones do not.
     fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
-        self.inner.derivs(u, v)
+        let (a, b) = self.map(u, v);
+        let mut d = self.inner.derivs(a, b);
+        if self.turned {
+            d.su = -d.su;
+            d.sv = -d.sv;
+        }
+        d
     }
     fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
+        let hint = hint.map(|h| {
+            let (a, b) = self.map(h[0], h[1]);
+            [a, b]
+        });
+        let uv = self.inner_inverse(p, hint)?;
+        let (a, b) = self.map(uv[0], uv[1]);
+        Some([a, b])
+    }
+    fn periods(&self) -> [Option<f64>; 2] {
+        self.periods
+    }
+    fn is_singular(&self, u: f64, v: f64) -> bool {
+        let (u, v) = self.map(u, v);
+        self.inner.is_singular(u, v)
+    }
+    fn singular_points(&self) -> Vec<P3> {
+        self.inner.singular_points()
+    }
+    fn is_planar(&self) -> bool {
+        self.inner.is_planar()
+    }
+}
+
+impl FaceView {
+    /// [`Surface::inverse`] in the inner surface's parameters.
+    fn inner_inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
         let inner_periods = self.inner.periods();
         // a hint outside the inner fundamental domain is moved into it
         let (du, dv) = self.inner.domain();
@@ -84,17 +156,5 @@ impl Surface for FaceView {
             }
         }
         Some(uv)
-    }
-    fn periods(&self) -> [Option<f64>; 2] {
-        self.periods
-    }
-    fn is_singular(&self, u: f64, v: f64) -> bool {
-        self.inner.is_singular(u, v)
-    }
-    fn singular_points(&self) -> Vec<P3> {
-        self.inner.singular_points()
-    }
-    fn is_planar(&self) -> bool {
-        self.inner.is_planar()
     }
 }

@@ -212,3 +212,77 @@ fn whole_sphere_bounded_by_a_vertex_loop_meshes() {
         }
     }
 }
+
+fn part(name: &str) -> (serde_json::Value, bubblemesh_truck::StepModel) {
+    let m = manifest();
+    let p = m["parts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == name)
+        .unwrap()
+        .clone();
+    let s = read_step(&root().join("fixtures").join(p["file"].as_str().unwrap())).unwrap();
+    (p, s)
+}
+
+/// Regression: a NURBS sphere (OCCT's NurbsConvert of a ball) has its poles
+/// where a whole boundary row of control points collapses; the NURBS
+/// surface reported no singular points, the engine connected the bubbles
+/// around the poles in (u,v), and the face failed with "constraint
+/// segments cross". The poles must be reported and the sphere mesh closed
+/// with the CAD volume (less the chord deficit, 3h²/(8R²) = 0.84 % here).
+#[test]
+fn nurbs_surface_collapsed_to_poles_meshes() {
+    let (p, s) = part("nurbs_sphere");
+    let poles = s.model.faces[0].surface.singular_points();
+    assert_eq!(poles.len(), 2, "poles {poles:?}");
+    for q in &poles {
+        assert!((q.coords.norm() - 10.0).abs() < 1e-6, "pole {q}");
+    }
+    let opts = Options {
+        dim: Some(2),
+        ..Default::default()
+    };
+    let (mesh, _) = mesh_model(&s.model, &Constant(1.5), &opts).unwrap();
+    let (closed, vol) = closed_and_volume(&mesh);
+    assert!(closed, "not closed");
+    let cad = p["volume"].as_f64().unwrap();
+    assert!(
+        vol > 0.0 && (vol / cad - 1.0).abs() < 0.02,
+        "volume {vol} vs CAD {cad}"
+    );
+}
+
+/// Regression: a spherical cap from its boundary circle up to the north
+/// pole (build123d's dome sheet) wraps around the sphere in u and runs on
+/// past its only loop to the top of its v range. The engine reads the top
+/// of a wrapped face's range as outside, so no bubble was placed and the
+/// face failed ("182 points lost their triangles"). The face is now
+/// presented with its parameter plane turned (pole at the bottom), which
+/// keeps its orientation: the mesh covers the cap's area with every normal
+/// pointing out of the sphere (the face's same_sense normal).
+#[test]
+fn cap_from_its_loop_up_to_a_pole_meshes() {
+    let (p, s) = part("b3d_dome_sheet");
+    let opts = Options {
+        dim: Some(2),
+        ..Default::default()
+    };
+    let (mesh, _) = mesh_model(&s.model, &Constant(1.5), &opts).unwrap();
+    let mut area = 0.0;
+    for t in &mesh.triangles {
+        let [a, b, c] = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        let n = (b - a).cross(&(c - a));
+        area += 0.5 * n.norm();
+        let centre = (a.coords + b.coords + c.coords) / 3.0;
+        assert!(n.dot(&centre) > 0.0, "a triangle faces into the sphere");
+    }
+    let cad = p["area"].as_f64().unwrap();
+    assert!((area / cad - 1.0).abs() < 0.01, "area {area} vs CAD {cad}");
+    // the pole is a node
+    assert!(mesh
+        .nodes
+        .iter()
+        .any(|n| (n.pos - bubblemesh_core::geom::P3::new(0.0, 0.0, 20.0)).norm() < 1e-9));
+}

@@ -34,7 +34,14 @@ use crate::curves::{basis_derivs, clamped_uniform_knots, find_span, GeometryErro
 ///
 /// Singular points (collapsed edges, e.g. the pole of a sphere patch) use
 /// the generic test |S_u × S_v| ≤ [`SINGULAR_REL`](super::SINGULAR_REL) × typical |S_u| ×
-/// typical |S_v|.
+/// typical |S_v|. [`Surface::singular_points`] reports the *poles*: the
+/// boundary isocurves (u = u_p, u = u_nu, v = v_q, v = v_nv) that collapse
+/// to a point. At a clamped end (end knot of multiplicity degree + 1) the
+/// isocurve is the NURBS curve of the boundary row (or column) of the net,
+/// which is constant exactly when all of that row's control points coincide
+/// (the basis functions are linearly independent and the weights positive);
+/// at an unclamped end the isocurve is evaluated at 4 points per knot span.
+/// Coincide means: within 1e-9 × the net's bounding-box diagonal.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NurbsSurface {
     degree: [usize; 2],
@@ -50,7 +57,14 @@ pub struct NurbsSurface {
     period: [Option<f64>; 2],
     size: f64,
     scale: [f64; 2],
+    /// Points where a boundary isocurve collapses (see the type's doc).
+    poles: Vec<P3>,
 }
+
+/// Relative tolerance (× the net's size) within which a boundary isocurve
+/// counts as collapsed to a pole. STEP files print 15 significant digits,
+/// so a pole written by a CAD kernel coincides to about 1e-15.
+const POLE_REL: f64 = 1e-9;
 
 impl NurbsSurface {
     /// A NURBS surface; `net[i][j]` is P_ij (i along u), `weights` (same
@@ -130,9 +144,11 @@ impl NurbsSurface {
             period: [None, None],
             size: (hi - lo).norm().max(f64::MIN_POSITIVE),
             scale: [1.0, 1.0],
+            poles: Vec::new(),
         };
         s.period = s.detect_periods();
         s.scale = typical_partials(&s);
+        s.poles = s.detect_poles();
         Ok(s)
     }
 
@@ -203,6 +219,70 @@ impl NurbsSurface {
             (self.eval(u, dv[0]).p, self.eval(u, dv[1]).p)
         });
         [cu.then_some(du[1] - du[0]), cv.then_some(dv[1] - dv[0])]
+    }
+
+    /// The collapsed boundary isocurves' points (type documentation),
+    /// without duplicates (a sphere patch whose two v-ends are poles gives
+    /// two points; a cone patch one).
+    fn detect_poles(&self) -> Vec<P3> {
+        let tol = POLE_REL * self.size;
+        let [nu, nv] = self.n;
+        let (du, dv) = self.domain();
+        let mut out: Vec<P3> = Vec::new();
+        // (direction of the isocurve's own parameter, fixed end)
+        for (fixed_dir, end) in [(0usize, 0usize), (0, 1), (1, 0), (1, 1)] {
+            let (p, knots, n) = if fixed_dir == 0 {
+                (self.degree[0], &self.knots_u, nu)
+            } else {
+                (self.degree[1], &self.knots_v, nv)
+            };
+            let clamped = if end == 0 {
+                knots[..=p].iter().all(|&k| k == knots[0])
+            } else {
+                knots[n..].iter().all(|&k| k == knots[n])
+            };
+            let pts: Vec<P3> = if clamped {
+                // the boundary row (fixed u index) or column (fixed v index)
+                let idx = if end == 0 { 0 } else { n - 1 };
+                if fixed_dir == 0 {
+                    (0..nv).map(|j| self.control_point(idx, j)).collect()
+                } else {
+                    (0..nu).map(|i| self.control_point(i, idx)).collect()
+                }
+            } else {
+                let other = 1 - fixed_dir;
+                let m = 4 * self.span_count(other).max(1);
+                let (fu, fv) = (du[end], dv[end]);
+                (0..=m)
+                    .map(|k| {
+                        let t = k as f64 / m as f64;
+                        if fixed_dir == 0 {
+                            self.eval(fu, dv[0] + t * (dv[1] - dv[0])).p
+                        } else {
+                            self.eval(du[0] + t * (du[1] - du[0]), fv).p
+                        }
+                    })
+                    .collect()
+            };
+            let first = pts[0];
+            if pts.iter().all(|q| (q - first).norm() <= tol) {
+                let pole = if clamped {
+                    // the surface's corner point (exactly on it)
+                    let (u, v) = if fixed_dir == 0 {
+                        (du[end], dv[0])
+                    } else {
+                        (du[0], dv[end])
+                    };
+                    self.eval(u, v).p
+                } else {
+                    first
+                };
+                if !out.iter().any(|q| (q - pole).norm() <= tol) {
+                    out.push(pole);
+                }
+            }
+        }
+        out
     }
 
     /// S and its partials up to order 2 (no wrapping).
@@ -321,6 +401,11 @@ impl Surface for NurbsSurface {
     fn is_singular(&self, u: f64, v: f64) -> bool {
         area_singular(&self.derivs(u, v), self.scale)
     }
+    /// The poles: points to which a boundary isocurve collapses (type
+    /// documentation). Empty for a surface without collapsed edges.
+    fn singular_points(&self) -> Vec<P3> {
+        self.poles.clone()
+    }
 }
 
 #[cfg(test)]
@@ -360,5 +445,51 @@ mod tests {
                 assert!((fd2 - b[2][j]).abs() < 1e-5, "N'' {j} at {t}");
             }
         }
+    }
+
+    /// A quarter cone as a bilinear patch collapsed at u = 0 (the apex)
+    /// reports its apex; the same patch without the collapse reports
+    /// nothing; a sphere-like patch collapsed at both v-ends reports both
+    /// poles, also with unclamped knots.
+    #[test]
+    fn collapsed_boundary_rows_are_poles() {
+        let apex = P3::new(0.0, 0.0, 2.0);
+        let cone = NurbsSurface::clamped_uniform(
+            1,
+            1,
+            vec![
+                vec![apex, apex],
+                vec![P3::new(1.0, 0.0, 0.0), P3::new(0.0, 1.0, 0.0)],
+            ],
+            None,
+        )
+        .unwrap();
+        let poles = cone.singular_points();
+        assert_eq!(poles.len(), 1);
+        assert!((poles[0] - apex).norm() < 1e-12);
+        assert!(cone.is_singular(0.0, 0.5));
+        let flat = NurbsSurface::clamped_uniform(
+            1,
+            1,
+            vec![
+                vec![P3::new(0.0, 0.0, 0.0), P3::new(0.0, 1.0, 0.0)],
+                vec![P3::new(1.0, 0.0, 0.0), P3::new(1.0, 1.0, 0.0)],
+            ],
+            None,
+        )
+        .unwrap();
+        assert!(flat.singular_points().is_empty());
+        // a spindle: u around (4 columns, degree 1), v pole to pole
+        let (s, n) = (P3::new(0.0, 0.0, -1.0), P3::new(0.0, 0.0, 1.0));
+        let ring = |a: f64| P3::new(a.cos(), a.sin(), 0.0);
+        let net: Vec<Vec<P3>> = (0..5).map(|k| vec![s, ring(k as f64), n]).collect();
+        let clamped = NurbsSurface::clamped_uniform(1, 2, net.clone(), None).unwrap();
+        assert_eq!(clamped.singular_points().len(), 2);
+        // unclamped in v: the ends are no longer the boundary rows, and the
+        // surface does not reach the poles: nothing is reported
+        let ku = clamped.knots_u().to_vec();
+        let open =
+            NurbsSurface::new(1, 2, net, None, ku, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
+        assert!(open.singular_points().is_empty());
     }
 }

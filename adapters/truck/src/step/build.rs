@@ -642,8 +642,9 @@ fn build_face(
     let (bu, bv) = base.domain();
     let bdom = [bu, bv];
     let mut keep = [false, false];
-    for (li, l) in loops_uv.iter_mut().enumerate() {
-        let _ = li;
+    // each loop's net displacement in the periodic directions
+    let mut nets: Vec<[f64; 2]> = Vec::with_capacity(loops_uv.len());
+    for l in loops_uv.iter_mut() {
         let mut net = [0.0f64; 2];
         for k in 1..=l.len() {
             let prev = l[k - 1];
@@ -666,6 +667,7 @@ fn build_face(
                 }
             }
         }
+        nets.push(net);
     }
     if loops_uv.is_empty() {
         keep = [periods[0].is_some(), periods[1].is_some()];
@@ -721,6 +723,42 @@ fn build_face(
             "a face with boundary loops that wraps around its surface in both directions is not supported",
         ));
     }
+    // A face that wraps around in one direction c may run from its
+    // wrapping loops to an end of the other direction o where the surface
+    // collapses (a cap to a sphere's pole): which end follows from the
+    // loops' sense. A loop keeps the face on its left, seen from the face's
+    // normal (S_u × S_v when same_sense): running +u it has the face at +v,
+    // running +v it has the face at −u. `open_end` is Some(1) when the face
+    // reaches the +o end, Some(0) the −o end, None when wrapping loops
+    // bound it on both sides (a band).
+    let mut open_end: Option<usize> = None;
+    let wrap_dir = match keep {
+        [true, false] => Some(0),
+        [false, true] => Some(1),
+        _ => None,
+    };
+    if let (Some(c), false) = (wrap_dir, loops_uv.is_empty()) {
+        let p = periods[c].expect("a kept direction is periodic");
+        let sense = if f.same_sense { 1 } else { -1 };
+        let towards_plus: i32 = nets
+            .iter()
+            .filter(|n| n[c].abs() > 0.5 * p)
+            .map(|n| if n[c] > 0.0 { 1 } else { -1 })
+            .sum::<i32>()
+            * sense
+            * if c == 0 { 1 } else { -1 };
+        open_end = match towards_plus {
+            0 => None,
+            1 => Some(1),
+            -1 => Some(0),
+            k => return Err(t.err(
+                f.id,
+                format!(
+                    "its boundary wraps around its surface {k} times more one way than the other"
+                ),
+            )),
+        };
+    }
     // the view's box
     let mut dom = bdom;
     for c in 0..2 {
@@ -762,12 +800,48 @@ fn build_face(
             }
         }
         dom[c] = [a, b];
+        // the face runs on past its loops to a collapsed end in c: its
+        // pole or apex vertex when the file has one (the range already
+        // reaches it), else the surface's end
+        let loop_lo = loops_uv
+            .iter()
+            .flatten()
+            .map(|x| x[c])
+            .fold(f64::INFINITY, f64::min);
+        let loop_hi = loops_uv
+            .iter()
+            .flatten()
+            .map(|x| x[c])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let reached = |end: usize| {
+            let tol = 1e-9 * (bdom[c][1] - bdom[c][0]).abs().min(1e6).max(1.0);
+            if end == 1 {
+                dom[c][1] > loop_hi + tol
+            } else {
+                dom[c][0] < loop_lo - tol
+            }
+        };
+        if let Some(end) = open_end.filter(|&e| wrap_dir == Some(1 - c) && !reached(e)) {
+            let e = bdom[c][end];
+            if !e.is_finite() {
+                return Err(t.err(
+                    f.id,
+                    "it is bounded on one side only by its loops around an unbounded surface",
+                ));
+            }
+            dom[c][end] = e;
+        }
     }
     let view_periods = [
         periods[0].filter(|_| keep[0]),
         periods[1].filter(|_| keep[1]),
     ];
-    let view = FaceView::new(base, (dom[0], dom[1]), view_periods);
+    let mut view = FaceView::new(base, (dom[0], dom[1]), view_periods);
+    if open_end == Some(1) {
+        // the engine reads the far (+) end of the wrapped face's range as
+        // outside: turn the view so the face's open end is at the near end
+        view = view.turned();
+    }
     let loops = if view_periods.iter().all(|p| p.is_none()) {
         let mut order: Vec<usize> = (0..loops.len()).collect();
         order.sort_by(|&i, &j| area(&loops_uv[j]).total_cmp(&area(&loops_uv[i])));
