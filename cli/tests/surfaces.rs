@@ -13,6 +13,10 @@ use bubblemesh_core::{Mesh, P3};
 const TAU: f64 = std::f64::consts::TAU;
 
 fn mesh_example(name: &str, size: &str) -> Mesh {
+    mesh_example_with(name, size, &[])
+}
+
+fn mesh_example_with(name: &str, size: &str, extra: &[&str]) -> Mesh {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.msh");
     let input = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -27,6 +31,7 @@ fn mesh_example(name: &str, size: &str) -> Mesh {
             "--size",
             size,
         ])
+        .args(extra)
         .output()
         .unwrap();
     assert!(
@@ -179,6 +184,32 @@ fn torus_is_closed_across_both_seams() {
     assert!((c.area - exact).abs() / exact < 0.01, "area {}", c.area);
     assert!(c.band > 0.99, "band {}", c.band);
     assert!(radius_ratio_mean(&m) > 0.95);
+}
+
+/// Stage 1 alone (`--fast`) on the sphere (periodic in u, two poles):
+/// closed, valid meshes. Regression: the oblique quadtree's root starts
+/// left of the parameter box, so seeds came one period off (u < 0) and the
+/// seam's copies in the connection overlapped: "constraint segments cross"
+/// at every size. (Still failing: `--fast` on the torus at some sizes,
+/// where quadtree leaves of two levels meet at the v seam and leave gaps
+/// of two spacings that only stage 2 fills.)
+#[test]
+fn fast_mode_meshes_the_sphere() {
+    for (name, d, exact) in [
+        ("sphere.toml", 0.1, 2.0 * TAU),
+        ("sphere.toml", 0.05, 2.0 * TAU),
+    ] {
+        let m = mesh_example_with(name, &d.to_string(), &["--fast"]);
+        let c = check(&m, d);
+        assert_eq!(c.boundary_loops, 0, "{name} at {d}");
+        // stage 1 alone is coarser in quality, not in coverage: the chord
+        // error of size d on radius 1 (sphere) or 0.3 (torus) stays small
+        assert!(
+            (c.area - exact).abs() / exact < 0.05,
+            "{name} at {d}: area {}",
+            c.area
+        );
+    }
 }
 
 /// The hole straddles the cylinder's seam: three boundary loops, and no

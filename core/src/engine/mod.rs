@@ -874,8 +874,13 @@ fn mesh_face(
             system::PRESSURE
         },
     };
+    // the quadtree's root starts left of the box, so on a periodic surface
+    // a seed may lie one period off: stage 2 wraps the bubbles it moves, but
+    // with stage 1 alone (`--fast`) the connection needs every (u,v) in the
+    // fundamental domain
     for s in seeds {
-        sys.push_free(s.pos, s.params, s.d);
+        let uv = sys.carrier.region.wrap(s.params);
+        sys.push_free(s.pos, uv, s.d);
     }
     let mut fr = FaceReport {
         face: fi as u32,
