@@ -69,7 +69,7 @@ def main():
             for kind in ("built-in", "plugin"):
                 rep_json = os.path.join(d, f"{kind}.json")
                 cmd = [bin_, "mesh", a.input, "-o", os.path.join(d, "out.msh"), "-q",
-                       "--report", rep_json]
+                       "--report", rep_json, "--threads", "1"]
                 if kind == "built-in":
                     cmd += ["--curvature", str(a.eps)]
                 else:

@@ -221,7 +221,7 @@ def run_bubblemesh(binary, case, label, flags, rp, a, meshdir):
     out = os.path.join(meshdir, "%s__%s.msh" % (case, tag))
     repf = os.path.join(meshdir, "%s__%s.report.json" % (case, tag))
     cmd = [binary, "mesh", os.path.join(REPO, DOMAIN[c["geom"]]), "-o", out, "--size", SIZE[case],
-           "--report", repf] + flags
+           "--report", repf, "--threads", "1"] + flags
     rec = {"case": case, "mesher": label, "status": "ok", "command": " ".join(
         [os.path.relpath(cmd[0], REPO)] + [os.path.relpath(x, REPO) if os.path.isabs(x) else x
                                            for x in cmd[1:]]),

@@ -299,7 +299,7 @@ def run_bubblemesh(binary, case, rp, a, meshdir):
     out = os.path.join(meshdir, "%s__%s.msh" % (case, BM))
     repf = os.path.join(meshdir, "%s__%s.report.json" % (case, BM))
     cmd = [binary, "mesh", os.path.join(REPO, DOMAIN[c["geom"]]), "-o", out, "--size", SIZE[case],
-           "--dim", "3", "--report", repf]
+           "--dim", "3", "--report", repf, "--threads", "1"]
     rec = {"case": case, "mesher": BM, "status": "ok", "command": " ".join(
         [os.path.relpath(cmd[0], REPO)] + [os.path.relpath(x, REPO) if os.path.isabs(x) else x
                                            for x in cmd[1:]]),

@@ -128,6 +128,10 @@ struct MeshArgs {
     /// Upper bound on stage-2 time steps per face.
     #[arg(long, default_value_t = 600)]
     max_steps: usize,
+    /// Threads for stage 2's force and move computation (the result does
+    /// not depend on it). Default: every core; 1 runs single-threaded.
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
     /// Curvature-based spacing (thesis eq. 4.6.1): triangles within EPS of
     /// the geometry (model units). Combines with --size and --view-spacing.
     #[arg(long, value_name = "EPS", allow_hyphen_values = true)]
@@ -454,6 +458,18 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         IntegratorArg::Rk4 => Integrator::Rk4,
     };
     opts.relax.max_steps = a.max_steps.max(1);
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1);
+    opts.relax.parallel = threads > 1;
+    if threads > 1 {
+        // the global pool is built once per process; an error means it was
+        // already built, which leaves the work parallel anyway
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_global();
+    }
     let bar = progress_bar(a.quiet, &model);
     if let Some(bar) = &bar {
         let b = bar.clone();

@@ -120,6 +120,30 @@ fn stage_two_improves_stage_one() {
     );
 }
 
+/// Stage 2 on several threads gives the single-threaded mesh bit for bit:
+/// every force is taken at the start of a step (eq. 4.4.6) and each move
+/// depends on its own bubble alone, so the order of work cannot matter.
+#[test]
+fn parallel_stage_two_equals_serial() {
+    let s = Expr::parse("0.01 + 0.2*((x-0.5)^2 + (y-0.5)^2)").unwrap();
+    let mut par = Options::default();
+    par.relax.parallel = true;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build()
+        .unwrap();
+    let (serial, _) = mesh_model(&common::square(), &s, &Options::default()).unwrap();
+    let (parallel, _) = pool
+        .install(|| mesh_model(&common::square(), &s, &par))
+        .unwrap();
+    assert_eq!(serial.nodes.len(), parallel.nodes.len());
+    for (a, b) in serial.nodes.iter().zip(&parallel.nodes) {
+        assert_eq!(a.pos, b.pos);
+    }
+    let tris = |m: &Mesh| m.triangles.iter().map(|t| t.nodes).collect::<Vec<_>>();
+    assert_eq!(tris(&serial), tris(&parallel));
+}
+
 /// Edge bubbles stay on their curve (eq. 4.5.1): every node of the holes'
 /// circles is on the circle to rounding.
 #[test]

@@ -46,6 +46,17 @@ pub struct RelaxStats {
     pub energy: Vec<EnergySample>,
 }
 
+/// What one Euler step does to one bubble.
+#[derive(Clone, Copy)]
+enum Move {
+    /// Balanced and at rest: held where it is.
+    Sleep,
+    /// New position, parameters and velocity.
+    To(P3, [f64; 2], V3),
+    /// The carrier refused the move (it would leave the entity): stopped.
+    Blocked,
+}
+
 /// Stage-2 settings.
 #[derive(Clone, Copy, Debug)]
 pub struct RelaxSettings {
@@ -59,6 +70,13 @@ pub struct RelaxSettings {
     /// steps only relax.
     pub population_until: f64,
     pub record_energy: bool,
+    /// Compute the forces and moves of a step on rayon's thread pool (the
+    /// caller's pool: `ThreadPool::install`, or the global one). The result
+    /// is identical to the serial step: every bubble's force is taken at the
+    /// start of the step (eq. 4.4.6) and its move depends on itself alone.
+    /// Off by default: the geometry and spacing are then only ever asked
+    /// from the calling thread (the C ABI promises its hosts that).
+    pub parallel: bool,
 }
 
 impl Default for RelaxSettings {
@@ -70,6 +88,7 @@ impl Default for RelaxSettings {
             population_every: 8,
             population_until: 0.75,
             record_energy: true,
+            parallel: false,
         }
     }
 }
@@ -297,17 +316,6 @@ impl<'a, C: Carrier> System<'a, C> {
         u
     }
 
-    /// Moves free bubble i by the object-space displacement dx, keeping it on
-    /// the entity; returns |Δx|/d, or None when the move would leave the
-    /// entity (the bubble stays).
-    fn move_bubble(&mut self, i: usize, dx: &V3) -> Option<f64> {
-        let (p, uv) = self.carrier.advance(&self.pos[i], self.params[i], dx)?;
-        let m = (p - self.pos[i]).norm() / self.d[i];
-        self.pos[i] = p;
-        self.params[i] = uv;
-        Some(m)
-    }
-
     /// Stage 2: relaxes the free bubbles to a force balance with adaptive
     /// population control (§4.3–4.7). `progress(step)` is called each step.
     ///
@@ -331,7 +339,7 @@ impl<'a, C: Carrier> System<'a, C> {
         let mut awake: Vec<u32> = (self.n_fixed as u32..self.n() as u32).collect();
         let mut stamp = vec![0u32; self.n()];
         let mut cand: Vec<u32> = Vec::new();
-        let mut forces: Vec<V3> = Vec::new();
+        let mut moves: Vec<Move> = Vec::new();
         let mut respace: Vec<u32> = Vec::new();
         let energy_stride = (self.n() / 5_000).max(1);
         let mut last_energy: Option<f64> = None;
@@ -371,31 +379,53 @@ impl<'a, C: Carrier> System<'a, C> {
                             }
                         }
                     }
-                    // forces at the start of the step (eq. 4.4.6)
-                    forces.clear();
-                    forces.extend(cand.iter().map(|&i| self.force_on(&nb, i as usize)));
-                    awake.clear();
-                    let mut max_move: f64 = 0.0;
-                    for (k, &i) in cand.iter().enumerate() {
+                    // forces at the start of the step (eq. 4.4.6), then each
+                    // bubble's move from its own state alone: x <- x + h v,
+                    // v <- v + h (f - c v)/m
+                    let step_one = |i: u32| -> Move {
                         let i = i as usize;
-                        let f = forces[k];
+                        let f = self.force_on(&nb, i);
                         let v = self.vel[i];
                         let fscale = K0 * self.d[i];
                         if f.norm() < SLEEP_FORCE * fscale && v.norm() * h < SLEEP_MOVE * self.d[i]
                         {
-                            self.vel[i] = V3::zeros();
-                            continue;
+                            return Move::Sleep;
+                        }
+                        match self.carrier.advance(&self.pos[i], self.params[i], &(v * h)) {
+                            Some((p, uv)) => {
+                                let nv = v + (f - v * c) * (h / MASS);
+                                Move::To(p, uv, self.carrier.project(uv, &nv))
+                            }
+                            None => Move::Blocked,
+                        }
+                    };
+                    moves.clear();
+                    if s.parallel {
+                        use rayon::prelude::*;
+                        cand.par_iter()
+                            .map(|&i| step_one(i))
+                            .collect_into_vec(&mut moves);
+                    } else {
+                        moves.extend(cand.iter().map(|&i| step_one(i)));
+                    }
+                    awake.clear();
+                    let mut max_move: f64 = 0.0;
+                    for (k, &i) in cand.iter().enumerate() {
+                        let i = i as usize;
+                        match moves[k] {
+                            Move::Sleep => {
+                                self.vel[i] = V3::zeros();
+                                continue;
+                            }
+                            Move::To(p, uv, nv) => {
+                                max_move = max_move.max((p - self.pos[i]).norm() / self.d[i]);
+                                self.pos[i] = p;
+                                self.params[i] = uv;
+                                self.vel[i] = nv;
+                            }
+                            Move::Blocked => self.vel[i] = V3::zeros(),
                         }
                         awake.push(i as u32);
-                        // x <- x + h v ; v <- v + h (f - c v)/m
-                        match self.move_bubble(i, &(v * h)) {
-                            Some(m) => {
-                                max_move = max_move.max(m);
-                                let nv = v + (f - v * c) * (h / MASS);
-                                self.vel[i] = self.carrier.project(self.params[i], &nv);
-                            }
-                            None => self.vel[i] = V3::zeros(),
-                        }
                         if self.spacing.constant().is_none() {
                             respace.push(i as u32);
                         }
