@@ -113,7 +113,9 @@ struct MeshArgs {
     /// bounding-box diagonal (printed).
     #[arg(long, allow_hyphen_values = true)]
     size: Option<String>,
-    /// Highest dimension to mesh: 1 edges, 2 faces, 3 volumes. Default: the model's.
+    /// Highest dimension to mesh: 1 edges, 2 faces, 3 volumes. Default: the
+    /// model's for a domain file; 2 (the boundary surfaces) for a STEP file,
+    /// whose solids mesh into tetrahedra with --dim 3.
     #[arg(long)]
     dim: Option<u8>,
     /// Stage 1 only (hierarchical placement, thesis §4.1): fast, lower quality.
@@ -441,8 +443,8 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             .map(|f| format!("{}: {f}", a.input.display()))
     };
     let spacing: &dyn Spacing = spacing.as_ref();
-    // a STEP solid meshes its boundary surfaces by default until volume
-    // meshing of STEP solids exists
+    // a STEP solid meshes its boundary surfaces by default (fast, and what
+    // a surface-mesh user expects); --dim 3 fills its solids with tetrahedra
     let is_step = a
         .input
         .extension()
