@@ -31,13 +31,14 @@
  *   structs; the user pointers must stay valid until the model (or spacing)
  *   is freed.
  * - The library calls callbacks only from the thread that is inside
- *   bm_mesh_generate / bm_mesh_generate_ex (or inside the bm_model_add_*
- *   call that checks them), synchronously, and never two at the same time.
- *   A model and a callback spacing are each used by one meshing call at a
- *   time: a second call that finds one in use returns BM_ERR_BUSY instead of
- *   calling its callbacks concurrently. (Callbacks shared by several models
- *   or spacings meshed on several threads at once are the host's to make
- *   thread-safe.)
+ *   bm_mesh_generate / bm_mesh_generate_ex / bm_mesh_step_file(_ex) (or
+ *   inside the bm_model_add_* call that checks them), synchronously, and
+ *   never two at the same time. Spacing plugins are called the same way,
+ *   from that thread. A model and a callback or plugin spacing are each
+ *   used by one meshing call at a time: a second call that finds one in use
+ *   returns BM_ERR_BUSY instead of calling its callbacks concurrently.
+ *   (Callbacks shared by several models or spacings meshed on several
+ *   threads at once are the host's to make thread-safe.)
  * - A callback says no by returning non-zero. Meshing then stops at once and
  *   returns BM_ERR_CALLBACK, with a message naming the callback, the entity
  *   and the parameters. A non-finite result (NaN, infinity), a spacing that
@@ -79,16 +80,19 @@ typedef enum bm_result {
   // entity.
   BM_ERR_CALLBACK = 4,
   // The spacing cannot be used: an expression that does not parse, a
-  // spacing that is not finite and > 0 where the engine asked, or one that
-  // asks for too many bubbles.
+  // spacing that is not finite and > 0 where the engine asked, one that
+  // asks for too many bubbles, or a spacing plugin whose `init` refused
+  // its arguments or that failed (or answered NaN, ∞, d ≤ 0) while
+  // meshing (the message names the plugin, the point and the entity).
   BM_ERR_SPACING = 5,
   // Meshing failed in the engine (triangulation); the message names the
   // entity.
   BM_ERR_MESH = 6,
-  // A file could not be written (the message names it).
+  // A file could not be read (missing, unreadable) or written; the
+  // message names it.
   BM_ERR_IO = 7,
-  // The feature is not available in this build (volume meshing, STEP
-  // import, spacing plugins).
+  // The feature is not available: the engine cannot mesh what was asked
+  // (the message says what).
   BM_ERR_UNSUPPORTED = 8,
   // The handle is in use by another call: another thread, or a callback
   // that re-entered the library with the handle being meshed.
@@ -99,6 +103,12 @@ typedef enum bm_result {
   BM_ERR_CANCELLED = 11,
   // A bug: the library panicked. The message has the panic's text.
   BM_ERR_PANIC = 12,
+  // A file's content is not what it should be: a STEP file that is not
+  // STEP, truncated, a syntax error, an entity that cannot be converted
+  // (the message names the file, the entity `#id TYPE` and the reason);
+  // a spacing plugin that is not a loadable bubblemesh plugin; a
+  // malformed plugin configuration file.
+  BM_ERR_FORMAT = 13,
 } bm_result;
 
 // A finished mesh (opaque): nodes, line segments on edges, triangles on
@@ -111,8 +121,9 @@ typedef struct bm_mesh bm_mesh;
 // with `bm_model_free`.
 typedef struct bm_model bm_model;
 
-// A node-spacing function (opaque). Create with `bm_spacing_from_expr` or
-// `bm_spacing_from_callback`, free with `bm_spacing_free`.
+// A node-spacing function (opaque). Create with `bm_spacing_from_expr`,
+// `bm_spacing_from_callback`, `bm_spacing_from_plugin` or
+// `bm_spacing_from_plugin_config`; free with `bm_spacing_free`.
 typedef struct bm_spacing bm_spacing;
 
 // Progress of a run: `phase` (a short name such as "relax"), the entity
@@ -128,7 +139,8 @@ typedef int (*bm_progress_fn)(void *user,
 // Meshing options; fill with `bm_options_init`, then change fields.
 typedef struct bm_options {
   // Highest dimension to mesh: 0 vertices, 1 edges, 2 faces, 3 volumes
-  // (not implemented: `BM_ERR_UNSUPPORTED`), -1 the model's highest.
+  // (tetrahedra), -1 the model's highest (for a STEP file: 2 when it has
+  // solids).
   int dim;
   // Non-zero: stage 1 only (hierarchical placement), fast, lower quality.
   int fast;
@@ -261,10 +273,10 @@ const char *bm_last_error_message(void);
 void bm_mesh_free(struct bm_mesh *mesh);
 
 // Meshes `model` with `spacing` up to dimension `dim` (-1: the model's
-// highest; 3 gives `BM_ERR_UNSUPPORTED`: volume meshing is not
-// implemented), `fast` non-zero for stage 1 only. The new mesh goes to
-// `*out`. Callbacks of the model and the spacing are called from this
-// thread only, one at a time, before this returns.
+// highest; 3 fills the volumes with tetrahedra), `fast` non-zero for
+// stage 1 only. The new mesh goes to `*out`. Callbacks of the model and
+// the spacing (and spacing plugins) are called from this thread only, one
+// at a time, before this returns.
 enum bm_result bm_mesh_generate(const struct bm_model *model,
                                 const struct bm_spacing *spacing,
                                 int dim,
@@ -314,21 +326,38 @@ enum bm_result bm_mesh_report_json(const struct bm_mesh *mesh,
                                    size_t len,
                                    size_t *out_len);
 
-// Meshes the STEP file at `path`: not available in this build (STEP import
-// arrives with the STEP adapter). Returns `BM_ERR_UNSUPPORTED`; describe
-// the model through `bm_model_*` callbacks instead.
+// Meshes the STEP file at `path` (ISO 10303-21, AP203/AP214/AP242 B-rep,
+// read by the same reader as the command line) with `spacing` up to
+// dimension `dim`, `fast` non-zero for stage 1 only. `spacing` NULL uses
+// the command line's default, 1/40 of the model's bounding-box diagonal.
+// `dim` -1 is the command line's default: the faces (2) for a file with
+// solids, else the file's highest dimension; 3 fills each solid with
+// tetrahedra (entity ids: the file's vertices, edges, faces and solids in
+// the reader's order). Lengths are in the file's length unit.
+//
+// A missing or unreadable file gives `BM_ERR_IO`; a file the reader
+// refuses (not STEP, truncated, a syntax error, an entity it cannot
+// convert) `BM_ERR_FORMAT`, with a message naming the file, the entity
+// (`#id TYPE`) and the reason. The file is parsed in memory (a STEP file
+// of N bytes needs a few times N).
 enum bm_result bm_mesh_step_file(const char *path,
                                  const struct bm_spacing *spacing,
                                  int dim,
                                  int fast,
                                  struct bm_mesh **out);
 
+// `bm_mesh_step_file` with options (dimension, step limit, a progress
+// callback that can cancel).
+enum bm_result bm_mesh_step_file_ex(const char *path,
+                                    const struct bm_spacing *spacing,
+                                    const struct bm_options *options,
+                                    struct bm_mesh **out);
+
 // Copies the tetrahedra, 4 node indices (0-based) each, into `out`
 // (`len` values, at least 4 x tetrahedron count).
 enum bm_result bm_mesh_tetrahedra(const struct bm_mesh *mesh, uint32_t *out, size_t len);
 
-// The number of tetrahedra (in model volumes; 0 until volume meshing
-// exists).
+// The number of tetrahedra (in model volumes; 0 unless meshed with dim 3).
 enum bm_result bm_mesh_tetrahedron_count(const struct bm_mesh *mesh, size_t *out_count);
 
 // Copies the volume each tetrahedron lies in into `out` (`len` entries,
@@ -415,11 +444,14 @@ enum bm_result bm_model_add_vertex(struct bm_model *model,
                                    double z,
                                    uint32_t *out_id);
 
-// Adds a volume bounded by `face_count` faces. `callbacks` may be NULL
-// (or have a NULL `contains`): in/out then comes from the boundary.
-// Volumes are stored and written as entities, but volume meshing is not
-// implemented yet: `bm_mesh_generate` with dim 3 returns
-// `BM_ERR_UNSUPPORTED`. Its id goes to `*out_volume`.
+// Adds a volume bounded by `face_count` faces, which together must form
+// closed shells (the outer boundary and any voids; each face's triangles
+// are oriented by the library, whichever way its surface's normal
+// points). `callbacks` may be NULL (or have a NULL `contains`): in/out
+// then comes from the boundary mesh alone; a `contains` callback is asked
+// in addition, and a point is inside only when both agree.
+// `bm_mesh_generate` with dim 3 fills the volume with tetrahedra. Its id
+// goes to `*out_volume`.
 enum bm_result bm_model_add_volume(struct bm_model *model,
                                    const uint32_t *faces,
                                    size_t face_count,
@@ -472,9 +504,32 @@ enum bm_result bm_spacing_from_callback(bm_spacing_fn callback,
 // sin cos tan`, `PI`, `E`. A constant is just a number: "0.05".
 enum bm_result bm_spacing_from_expr(const char *text, struct bm_spacing **out);
 
-// A spacing from a plugin library at `path`: not available in this build
-// (plugins are a separate piece of work). Returns `BM_ERR_UNSUPPORTED`.
-enum bm_result bm_spacing_from_plugin(const char *path, struct bm_spacing **out);
+// A spacing from the plugin library at `path` (a shared library speaking
+// the plugin ABI of `bubblemesh-plugin-api`, see plugins/README.md), with
+// `arg_count` arguments `args[k]`, each "KEY=VALUE" (as the command line's
+// `--plugin-arg`; `args` may be NULL when `arg_count` is 0).
+//
+// The library is loaded and checked here: a missing file gives
+// `BM_ERR_IO`, a file that is not a loadable bubblemesh plugin (no entry
+// symbol, wrong ABI version or struct layout) `BM_ERR_FORMAT`, a malformed
+// argument `BM_ERR_RANGE`; each message names the file. The plugin's
+// `init` runs at each meshing call with that call's model (its bounding
+// box) and these arguments: a refusal then fails the meshing call with
+// `BM_ERR_SPACING` and the plugin's message, and so does a plugin that
+// fails or answers a value that is not finite and > 0 while meshing.
+// Plugin spacings are used by one meshing call at a time (`BM_ERR_BUSY`
+// otherwise), from the thread of that call.
+enum bm_result bm_spacing_from_plugin(const char *path,
+                                      const char *const *args,
+                                      size_t arg_count,
+                                      struct bm_spacing **out);
+
+// A spacing from a plugin configuration file (TOML, as the command line's
+// `--plugin-config`): `[[plugin]]` tables with `path` (relative to the
+// file) and `args = { key = value, ... }`. Several plugins combine by
+// their minimum. Errors as `bm_spacing_from_plugin`; an unreadable file
+// is `BM_ERR_IO`, a malformed one `BM_ERR_FORMAT`.
+enum bm_result bm_spacing_from_plugin_config(const char *path, struct bm_spacing **out);
 
 // The library version, e.g. "0.1.0" (a static string).
 const char *bm_version(void);

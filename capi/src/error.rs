@@ -29,16 +29,19 @@ pub enum bm_result {
     /// entity.
     BM_ERR_CALLBACK = 4,
     /// The spacing cannot be used: an expression that does not parse, a
-    /// spacing that is not finite and > 0 where the engine asked, or one that
-    /// asks for too many bubbles.
+    /// spacing that is not finite and > 0 where the engine asked, one that
+    /// asks for too many bubbles, or a spacing plugin whose `init` refused
+    /// its arguments or that failed (or answered NaN, ∞, d ≤ 0) while
+    /// meshing (the message names the plugin, the point and the entity).
     BM_ERR_SPACING = 5,
     /// Meshing failed in the engine (triangulation); the message names the
     /// entity.
     BM_ERR_MESH = 6,
-    /// A file could not be written (the message names it).
+    /// A file could not be read (missing, unreadable) or written; the
+    /// message names it.
     BM_ERR_IO = 7,
-    /// The feature is not available in this build (volume meshing, STEP
-    /// import, spacing plugins).
+    /// The feature is not available: the engine cannot mesh what was asked
+    /// (the message says what).
     BM_ERR_UNSUPPORTED = 8,
     /// The handle is in use by another call: another thread, or a callback
     /// that re-entered the library with the handle being meshed.
@@ -49,6 +52,12 @@ pub enum bm_result {
     BM_ERR_CANCELLED = 11,
     /// A bug: the library panicked. The message has the panic's text.
     BM_ERR_PANIC = 12,
+    /// A file's content is not what it should be: a STEP file that is not
+    /// STEP, truncated, a syntax error, an entity that cannot be converted
+    /// (the message names the file, the entity `#id TYPE` and the reason);
+    /// a spacing plugin that is not a loadable bubblemesh plugin; a
+    /// malformed plugin configuration file.
+    BM_ERR_FORMAT = 13,
 }
 
 use bm_result::*;
@@ -69,6 +78,7 @@ impl bm_result {
             BM_ERR_UTF8 => "BM_ERR_UTF8",
             BM_ERR_CANCELLED => "BM_ERR_CANCELLED",
             BM_ERR_PANIC => "BM_ERR_PANIC",
+            BM_ERR_FORMAT => "BM_ERR_FORMAT",
         }
     }
 }

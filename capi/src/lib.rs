@@ -139,6 +139,7 @@ pub extern "C" fn bm_result_name(code: bm_result) -> *const c_char {
         bm_result::BM_ERR_UTF8 => "BM_ERR_UTF8\0",
         bm_result::BM_ERR_CANCELLED => "BM_ERR_CANCELLED\0",
         bm_result::BM_ERR_PANIC => "BM_ERR_PANIC\0",
+        bm_result::BM_ERR_FORMAT => "BM_ERR_FORMAT\0",
     };
     debug_assert_eq!(&s[..s.len() - 1], code.name());
     s.as_ptr() as *const c_char

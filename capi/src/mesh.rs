@@ -7,14 +7,15 @@ use std::sync::Arc;
 
 use bubblemesh_core::engine::{MeshError, Options, Progress, Report};
 use bubblemesh_core::model::EntityRef;
-use bubblemesh_core::{mesh_model, Mesh};
+use bubblemesh_core::spacing::Constant;
+use bubblemesh_core::{mesh_model, Mesh, Model};
 
 use crate::error::{
     abort_with, bm_result, from_unwind, guard, guard_void, in_callback_scope, Error, Result,
 };
 use crate::geometry::UserPtr;
 use crate::model::{bm_model, ModelObj};
-use crate::spacing::{bm_spacing, spacing_obj};
+use crate::spacing::{bm_spacing, spacing_obj, Ready};
 use crate::{free_handle, into_handle, need, object, put, utf8, Object};
 
 /// A finished mesh (opaque): nodes, line segments on edges, triangles on
@@ -57,7 +58,8 @@ pub type bm_progress_fn = Option<
 #[derive(Clone, Copy)]
 pub struct bm_options {
     /// Highest dimension to mesh: 0 vertices, 1 edges, 2 faces, 3 volumes
-    /// (not implemented: `BM_ERR_UNSUPPORTED`), -1 the model's highest.
+    /// (tetrahedra), -1 the model's highest (for a STEP file: 2 when it has
+    /// solids).
     pub dim: c_int,
     /// Non-zero: stage 1 only (hierarchical placement), fast, lower quality.
     pub fast: c_int,
@@ -118,28 +120,18 @@ fn code_of(e: &MeshError) -> bm_result {
     }
 }
 
-fn generate(
-    model: *const bm_model,
-    spacing: *const bm_spacing,
-    opts: bm_options,
-    out: *mut *mut bm_mesh,
-) -> Result<()> {
-    let m = unsafe { object::<ModelObj>(model as *const c_void, "model")? };
-    let s = unsafe { spacing_obj(spacing)? };
-    need(out, "out")?;
-    if !(-1..=3).contains(&opts.dim) {
+/// Checks `dim` against the range and the model's dimension (`what`
+/// names that dimension in the message).
+fn check_dim(dim: c_int, model: &Model, what: &str) -> Result<()> {
+    if !(-1..=3).contains(&dim) {
         return Err(Error::range(format!(
-            "dim = {} must be -1 (the model's), 0, 1, 2 or 3",
-            opts.dim
+            "dim = {dim} must be -1 (the model's), 0, 1, 2 or 3"
         )));
     }
-    let model = m.lock()?;
-    let _claim = s.claim()?;
-    if opts.dim >= 0 && opts.dim as u8 > model.dim() {
+    if dim >= 0 && dim as u8 > model.dim() {
         return Err(Error::range(format!(
-            "dim = {} but the model's highest dimension is {} ({} vertices, {} edges, {} faces, \
-             {} volumes)",
-            opts.dim,
+            "dim = {dim} but {what} is {} ({} vertices, {} edges, {} \
+             faces, {} volumes)",
             model.dim(),
             model.vertices.len(),
             model.edges.len(),
@@ -147,18 +139,13 @@ fn generate(
             model.volumes.len()
         )));
     }
-    if opts.dim == 3 || (opts.dim < 0 && model.dim() == 3) {
-        return Err(Error::new(
-            bm_result::BM_ERR_UNSUPPORTED,
-            format!(
-                "volume meshing (dim 3) is not implemented yet; mesh the model's {} faces \
-                 with dim 2 (volumes are kept as entities)",
-                model.faces.len()
-            ),
-        ));
-    }
+    Ok(())
+}
+
+/// The engine options of `opts` (its dimension decided by the caller).
+fn engine_options(opts: &bm_options, dim: Option<u8>) -> Options {
     let mut o = Options {
-        dim: (opts.dim >= 0).then_some(opts.dim as u8),
+        dim,
         fast: opts.fast != 0,
         ..Default::default()
     };
@@ -191,34 +178,72 @@ fn generate(
             }
         }));
     }
-    // The unwind of a failing callback is caught here, inside the model's
-    // lock, so the lock is released normally.
+    o
+}
+
+/// Meshes `model` with the spacing `ready` makes: inside the callback
+/// scope, with the unwind of a failing callback caught here (so locks held
+/// by the caller are released normally). A plugin failure is the cause of
+/// any engine error and fails the run even when meshing succeeded (a
+/// minimum can hide the NaN a failed plugin answers).
+fn run<'s>(
+    model: &Model,
+    ready: impl FnOnce() -> Result<Ready<'s>>,
+    o: &Options,
+    prefix: &str,
+) -> Result<MeshObj> {
     let r = in_callback_scope(|| {
-        catch_unwind(AssertUnwindSafe(|| mesh_model(&model, s.spacing(), &o)))
+        catch_unwind(AssertUnwindSafe(|| -> Result<(Mesh, Report)> {
+            let spacing = ready()?;
+            let meshed = mesh_model(model, spacing.spacing(), o);
+            if let Some(f) = spacing.failure() {
+                return Err(Error::new(
+                    bm_result::BM_ERR_SPACING,
+                    format!("{prefix}{f}"),
+                ));
+            }
+            meshed.map_err(|e| Error::new(code_of(&e), format!("{prefix}{e}")))
+        }))
     });
     let (mesh, report) = match r {
         Err(payload) => return Err(from_unwind(payload)),
-        Ok(Err(e)) => return Err(Error::new(code_of(&e), e.to_string())),
-        Ok(Ok(x)) => x,
+        Ok(r) => r?,
     };
-    unsafe {
-        put(
-            out,
-            "out",
-            into_handle(MeshObj {
-                magic: MeshObj::MAGIC,
-                mesh,
-                report,
-            }),
-        )
+    Ok(MeshObj {
+        magic: MeshObj::MAGIC,
+        mesh,
+        report,
+    })
+}
+
+fn generate(
+    model: *const bm_model,
+    spacing: *const bm_spacing,
+    opts: bm_options,
+    out: *mut *mut bm_mesh,
+) -> Result<()> {
+    let m = unsafe { object::<ModelObj>(model as *const c_void, "model")? };
+    let s = unsafe { spacing_obj(spacing)? };
+    need(out, "out")?;
+    if !(-1..=3).contains(&opts.dim) {
+        return Err(Error::range(format!(
+            "dim = {} must be -1 (the model's), 0, 1, 2 or 3",
+            opts.dim
+        )));
     }
+    let model = m.lock()?;
+    let _claim = s.claim()?;
+    check_dim(opts.dim, &model, "the model's highest dimension")?;
+    let o = engine_options(&opts, (opts.dim >= 0).then_some(opts.dim as u8));
+    let obj = run(&model, || s.ready(&model), &o, "")?;
+    unsafe { put(out, "out", into_handle(obj)) }
 }
 
 /// Meshes `model` with `spacing` up to dimension `dim` (-1: the model's
-/// highest; 3 gives `BM_ERR_UNSUPPORTED`: volume meshing is not
-/// implemented), `fast` non-zero for stage 1 only. The new mesh goes to
-/// `*out`. Callbacks of the model and the spacing are called from this
-/// thread only, one at a time, before this returns.
+/// highest; 3 fills the volumes with tetrahedra), `fast` non-zero for
+/// stage 1 only. The new mesh goes to `*out`. Callbacks of the model and
+/// the spacing (and spacing plugins) are called from this thread only, one
+/// at a time, before this returns.
 #[no_mangle]
 pub unsafe extern "C" fn bm_mesh_generate(
     model: *const bm_model,
@@ -260,9 +285,99 @@ pub unsafe extern "C" fn bm_mesh_generate_ex(
     })
 }
 
-/// Meshes the STEP file at `path`: not available in this build (STEP import
-/// arrives with the STEP adapter). Returns `BM_ERR_UNSUPPORTED`; describe
-/// the model through `bm_model_*` callbacks instead.
+/// Reads the STEP file at `path` (`bubblemesh-truck`, the reader of the
+/// command line): a missing or unreadable file is `BM_ERR_IO`, anything
+/// the reader refuses (not STEP, truncated, a syntax error, an entity it
+/// cannot convert) `BM_ERR_FORMAT` with its message, which names the file,
+/// the entity (`#id TYPE`) and the reason.
+fn read_step(path: &str) -> Result<Model> {
+    // Read here rather than with `bubblemesh_truck::read_step` (which does
+    // the same: read the bytes, then `parse_step` on them as lossy UTF-8)
+    // only to tell a file that cannot be read (BM_ERR_IO) from one whose
+    // content is refused (BM_ERR_FORMAT) without matching message text.
+    let bytes = std::fs::read(path).map_err(|e| {
+        Error::new(
+            bm_result::BM_ERR_IO,
+            format!("{path}: cannot read the STEP file: {e}"),
+        )
+    })?;
+    bubblemesh_truck::parse_step(&String::from_utf8_lossy(&bytes), path)
+        .map(|s| s.model)
+        .map_err(|e| Error::new(bm_result::BM_ERR_FORMAT, e.to_string()))
+}
+
+fn step_file(
+    path: *const c_char,
+    spacing: *const bm_spacing,
+    opts: bm_options,
+    out: *mut *mut bm_mesh,
+) -> Result<()> {
+    let path = unsafe { utf8(path, "path")? };
+    let s = if spacing.is_null() {
+        None
+    } else {
+        Some(unsafe { spacing_obj(spacing)? })
+    };
+    need(out, "out")?;
+    if !(-1..=3).contains(&opts.dim) {
+        return Err(Error::range(format!(
+            "dim = {} must be -1 (2 for a file with solids, else the file's highest), 0, 1, \
+             2 or 3",
+            opts.dim
+        )));
+    }
+    let _claim = s.map(|s| s.claim()).transpose()?;
+    let model = read_step(path)?;
+    check_dim(
+        opts.dim,
+        &model,
+        &format!("the highest dimension of '{path}'"),
+    )?;
+    // the command line's defaults: a file with solids meshes their
+    // boundary surfaces unless dim 3 is asked for
+    let dim = if opts.dim >= 0 {
+        opts.dim as u8
+    } else {
+        model.dim().min(2)
+    };
+    let o = engine_options(&opts, Some(dim));
+    let obj = match s {
+        Some(s) => run(&model, || s.ready(&model), &o, &format!("{path}: "))?,
+        None => {
+            // the command line's default spacing: 1/40 of the bounding-box
+            // diagonal
+            let diag = model.size();
+            if !(diag > 0.0 && diag.is_finite()) {
+                return Err(Error::geometry(format!(
+                    "{path}: the model is empty or has zero size"
+                )));
+            }
+            let d = diag / 40.0;
+            run(
+                &model,
+                || Ok(Ready::owned(Box::new(Constant(d)))),
+                &o,
+                &format!("{path}: "),
+            )?
+        }
+    };
+    unsafe { put(out, "out", into_handle(obj)) }
+}
+
+/// Meshes the STEP file at `path` (ISO 10303-21, AP203/AP214/AP242 B-rep,
+/// read by the same reader as the command line) with `spacing` up to
+/// dimension `dim`, `fast` non-zero for stage 1 only. `spacing` NULL uses
+/// the command line's default, 1/40 of the model's bounding-box diagonal.
+/// `dim` -1 is the command line's default: the faces (2) for a file with
+/// solids, else the file's highest dimension; 3 fills each solid with
+/// tetrahedra (entity ids: the file's vertices, edges, faces and solids in
+/// the reader's order). Lengths are in the file's length unit.
+///
+/// A missing or unreadable file gives `BM_ERR_IO`; a file the reader
+/// refuses (not STEP, truncated, a syntax error, an entity it cannot
+/// convert) `BM_ERR_FORMAT`, with a message naming the file, the entity
+/// (`#id TYPE`) and the reason. The file is parsed in memory (a STEP file
+/// of N bytes needs a few times N).
 #[no_mangle]
 pub unsafe extern "C" fn bm_mesh_step_file(
     path: *const c_char,
@@ -271,23 +386,36 @@ pub unsafe extern "C" fn bm_mesh_step_file(
     fast: c_int,
     out: *mut *mut bm_mesh,
 ) -> bm_result {
-    let _ = fast;
-    guard("bm_mesh_step_file", || unsafe {
-        let path = utf8(path, "path")?;
-        spacing_obj(spacing)?;
-        need(out, "out")?;
-        if !(-1..=3).contains(&dim) {
-            return Err(Error::range(format!(
-                "dim = {dim} must be -1, 0, 1, 2 or 3"
-            )));
+    guard("bm_mesh_step_file", || {
+        step_file(
+            path,
+            spacing,
+            bm_options {
+                dim,
+                fast,
+                max_steps: 0,
+                progress: None,
+                progress_user: std::ptr::null_mut(),
+            },
+            out,
+        )
+    })
+}
+
+/// `bm_mesh_step_file` with options (dimension, step limit, a progress
+/// callback that can cancel).
+#[no_mangle]
+pub unsafe extern "C" fn bm_mesh_step_file_ex(
+    path: *const c_char,
+    spacing: *const bm_spacing,
+    options: *const bm_options,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_mesh_step_file_ex", || {
+        if options.is_null() {
+            return Err(Error::null("options"));
         }
-        Err(Error::new(
-            bm_result::BM_ERR_UNSUPPORTED,
-            format!(
-                "cannot mesh '{path}': STEP import is not available in this build yet; describe \
-                 the model through the bm_model_* functions instead"
-            ),
-        ))
+        step_file(path, spacing, unsafe { *options }, out)
     })
 }
 
@@ -374,8 +502,7 @@ pub unsafe extern "C" fn bm_mesh_triangle_count(
     })
 }
 
-/// The number of tetrahedra (in model volumes; 0 until volume meshing
-/// exists).
+/// The number of tetrahedra (in model volumes; 0 unless meshed with dim 3).
 #[no_mangle]
 pub unsafe extern "C" fn bm_mesh_tetrahedron_count(
     mesh: *const bm_mesh,

@@ -600,11 +600,14 @@ pub unsafe extern "C" fn bm_model_face_embed_vertex(
     })
 }
 
-/// Adds a volume bounded by `face_count` faces. `callbacks` may be NULL
-/// (or have a NULL `contains`): in/out then comes from the boundary.
-/// Volumes are stored and written as entities, but volume meshing is not
-/// implemented yet: `bm_mesh_generate` with dim 3 returns
-/// `BM_ERR_UNSUPPORTED`. Its id goes to `*out_volume`.
+/// Adds a volume bounded by `face_count` faces, which together must form
+/// closed shells (the outer boundary and any voids; each face's triangles
+/// are oriented by the library, whichever way its surface's normal
+/// points). `callbacks` may be NULL (or have a NULL `contains`): in/out
+/// then comes from the boundary mesh alone; a `contains` callback is asked
+/// in addition, and a point is inside only when both agree.
+/// `bm_mesh_generate` with dim 3 fills the volume with tetrahedra. Its id
+/// goes to `*out_volume`.
 #[no_mangle]
 pub unsafe extern "C" fn bm_model_add_volume(
     model: *mut bm_model,

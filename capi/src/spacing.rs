@@ -1,17 +1,23 @@
-//! `bm_spacing`: the node spacing d(x), from an expression or a host
-//! callback (plugins: not yet).
+//! `bm_spacing`: the node spacing d(x), from an expression, a host
+//! callback, or spacing plugins (shared libraries loaded by
+//! `bubblemesh-plugin-host`, the same loader as the command line's
+//! `--plugin`).
 
 use std::ffi::{c_char, c_int, c_void};
-use std::sync::{Mutex, MutexGuard, TryLockError};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 
-use bubblemesh_core::spacing::{Expr, Spacing, SpacingQuery};
+use bubblemesh_core::spacing::{Expr, MinOf, Spacing, SpacingQuery};
+use bubblemesh_core::Model;
+use bubblemesh_plugin_host::{Plugin, PluginError, PluginSpacing, PluginSpec};
 
 use crate::error::{abort_with, bm_result, callbacks_allowed, guard, guard_void, Error, Result};
 use crate::geometry::UserPtr;
 use crate::{free_handle, into_handle, need, object, put, utf8, Object};
 
-/// A node-spacing function (opaque). Create with `bm_spacing_from_expr` or
-/// `bm_spacing_from_callback`, free with `bm_spacing_free`.
+/// A node-spacing function (opaque). Create with `bm_spacing_from_expr`,
+/// `bm_spacing_from_callback`, `bm_spacing_from_plugin` or
+/// `bm_spacing_from_plugin_config`; free with `bm_spacing_free`.
 #[allow(non_camel_case_types)]
 pub struct bm_spacing {
     _private: [u8; 0],
@@ -89,9 +95,59 @@ impl Spacing for CallbackSpacing {
     }
 }
 
+/// A plugin library, loaded and checked when the spacing is created, with
+/// its arguments. It is initialised (`init` with the model's bounding box
+/// and these arguments) at each meshing call, for that call's model.
+pub(crate) struct PluginSource {
+    plugin: Arc<Plugin>,
+    args: Vec<(String, String)>,
+}
+
 pub(crate) enum Kind {
     Expr(Expr),
     Callback(CallbackSpacing),
+    /// One or more plugins; several combine by their minimum (as the
+    /// command line's default `--combine min`, thesis §4.8.1).
+    Plugins(Vec<PluginSource>),
+}
+
+/// A spacing ready for one meshing call: borrowed from the handle, or
+/// built for the call's model (plugins, the STEP default), with the plugin
+/// instances whose failures must be checked after meshing.
+pub(crate) struct Ready<'a> {
+    borrowed: Option<&'a dyn Spacing>,
+    owned: Option<Box<dyn Spacing>>,
+    plugins: Vec<PluginSpacing>,
+}
+
+impl<'a> Ready<'a> {
+    /// A spacing owned by the call (the STEP default d).
+    pub fn owned(s: Box<dyn Spacing>) -> Ready<'a> {
+        Ready {
+            borrowed: None,
+            owned: Some(s),
+            plugins: Vec::new(),
+        }
+    }
+
+    pub fn spacing(&self) -> &dyn Spacing {
+        match (&self.owned, self.borrowed) {
+            (Some(o), _) => o.as_ref(),
+            (None, Some(b)) => b,
+            (None, None) => unreachable!("a Ready spacing holds one spacing"),
+        }
+    }
+
+    /// The first plugin failure of the run (a refusal, a panic, a value
+    /// that is not finite and > 0), naming the plugin, the point and the
+    /// entity. The engine stops on the NaN a failed plugin answers, but a
+    /// minimum with another plugin can hide it, so this is checked after
+    /// every run, successful or not.
+    pub fn failure(&self) -> Option<String> {
+        self.plugins
+            .iter()
+            .find_map(|p| p.failure().map(str::to_string))
+    }
 }
 
 #[repr(C)]
@@ -109,27 +165,65 @@ impl Object for SpacingObj {
 }
 
 impl SpacingObj {
-    pub fn spacing(&self) -> &dyn Spacing {
-        match &self.kind {
-            Kind::Expr(e) => e,
-            Kind::Callback(c) => c,
+    /// The spacing for one meshing call on `model`. Plugins are initialised
+    /// here for this model (their `init` may refuse its arguments:
+    /// `BM_ERR_SPACING`); building their vertex geometry evaluates the
+    /// model's curves and surfaces, so call this inside the callback scope
+    /// and the unwind guard of the meshing call.
+    pub fn ready(&self, model: &Model) -> Result<Ready<'_>> {
+        let plugins = match &self.kind {
+            Kind::Expr(e) => return Ok(borrowed(e)),
+            Kind::Callback(c) => return Ok(borrowed(c)),
+            Kind::Plugins(p) => p,
+        };
+        let shared = Arc::new(model.clone());
+        let mut list = Vec::with_capacity(plugins.len());
+        for src in plugins {
+            let p = PluginSpacing::new(src.plugin.clone(), &src.args, shared.clone())
+                .map_err(|e| Error::new(bm_result::BM_ERR_SPACING, e.to_string()))?;
+            list.push(p);
         }
+        let spacing: Box<dyn Spacing> = if list.len() == 1 {
+            Box::new(list[0].clone())
+        } else {
+            Box::new(MinOf(
+                list.iter()
+                    .map(|p| Box::new(p.clone()) as Box<dyn Spacing>)
+                    .collect(),
+            ))
+        };
+        Ok(Ready {
+            borrowed: None,
+            owned: Some(spacing),
+            plugins: list,
+        })
     }
 
-    /// For a callback spacing, the right to call it (`BM_ERR_BUSY` when
-    /// another meshing call uses it); nothing to hold for an expression.
+    /// For a callback or plugin spacing, the right to call it
+    /// (`BM_ERR_BUSY` when another meshing call uses it); nothing to hold
+    /// for an expression.
     pub fn claim(&self) -> Result<Option<MutexGuard<'_, ()>>> {
-        if let Kind::Expr(_) = self.kind {
-            return Ok(None);
-        }
+        let what = match self.kind {
+            Kind::Expr(_) => return Ok(None),
+            Kind::Callback(_) => "callback",
+            Kind::Plugins(_) => "plugin",
+        };
         match self.busy.try_lock() {
             Ok(g) => Ok(Some(g)),
             Err(TryLockError::Poisoned(p)) => Ok(Some(p.into_inner())),
             Err(TryLockError::WouldBlock) => Err(Error::new(
                 bm_result::BM_ERR_BUSY,
-                "the callback spacing is in use by another meshing call",
+                format!("the {what} spacing is in use by another meshing call"),
             )),
         }
+    }
+}
+
+fn borrowed(s: &dyn Spacing) -> Ready<'_> {
+    Ready {
+        borrowed: Some(s),
+        owned: None,
+        plugins: Vec::new(),
     }
 }
 
@@ -188,23 +282,107 @@ pub unsafe extern "C" fn bm_spacing_from_callback(
     })
 }
 
-/// A spacing from a plugin library at `path`: not available in this build
-/// (plugins are a separate piece of work). Returns `BM_ERR_UNSUPPORTED`.
+/// The code for a plugin that cannot be loaded: a missing file is
+/// `BM_ERR_IO`, a file that is not a usable plugin `BM_ERR_FORMAT`, an
+/// `init` that refuses `BM_ERR_SPACING`.
+fn plugin_error(e: PluginError) -> Error {
+    let code = match e {
+        PluginError::Missing { .. } => bm_result::BM_ERR_IO,
+        PluginError::Init { .. } => bm_result::BM_ERR_SPACING,
+        _ => bm_result::BM_ERR_FORMAT,
+    };
+    Error::new(code, e.to_string())
+}
+
+fn load_plugins(specs: Vec<PluginSpec>) -> Result<SpacingObj> {
+    let mut list = Vec::with_capacity(specs.len());
+    for spec in specs {
+        list.push(PluginSource {
+            plugin: Plugin::load(&spec.path).map_err(plugin_error)?,
+            args: spec.args,
+        });
+    }
+    Ok(new_obj(Kind::Plugins(list)))
+}
+
+/// A spacing from the plugin library at `path` (a shared library speaking
+/// the plugin ABI of `bubblemesh-plugin-api`, see plugins/README.md), with
+/// `arg_count` arguments `args[k]`, each "KEY=VALUE" (as the command line's
+/// `--plugin-arg`; `args` may be NULL when `arg_count` is 0).
+///
+/// The library is loaded and checked here: a missing file gives
+/// `BM_ERR_IO`, a file that is not a loadable bubblemesh plugin (no entry
+/// symbol, wrong ABI version or struct layout) `BM_ERR_FORMAT`, a malformed
+/// argument `BM_ERR_RANGE`; each message names the file. The plugin's
+/// `init` runs at each meshing call with that call's model (its bounding
+/// box) and these arguments: a refusal then fails the meshing call with
+/// `BM_ERR_SPACING` and the plugin's message, and so does a plugin that
+/// fails or answers a value that is not finite and > 0 while meshing.
+/// Plugin spacings are used by one meshing call at a time (`BM_ERR_BUSY`
+/// otherwise), from the thread of that call.
 #[no_mangle]
 pub unsafe extern "C" fn bm_spacing_from_plugin(
     path: *const c_char,
+    args: *const *const c_char,
+    arg_count: usize,
     out: *mut *mut bm_spacing,
 ) -> bm_result {
     guard("bm_spacing_from_plugin", || unsafe {
         let path = utf8(path, "path")?;
         need(out, "out")?;
-        Err(Error::new(
-            bm_result::BM_ERR_UNSUPPORTED,
-            format!(
-                "cannot load the spacing plugin '{path}': spacing plugins are not supported by \
-                 this build yet; use bm_spacing_from_callback or bm_spacing_from_expr"
-            ),
-        ))
+        if arg_count > 0 && args.is_null() {
+            return Err(Error::null("args"));
+        }
+        if arg_count > 1 << 16 {
+            return Err(Error::range(format!(
+                "arg_count = {arg_count} is unreasonably large"
+            )));
+        }
+        let mut pairs = Vec::with_capacity(arg_count);
+        for k in 0..arg_count {
+            let a = utf8(*args.add(k), &format!("args[{k}]"))?;
+            match a.split_once('=') {
+                Some((key, value)) if !key.trim().is_empty() => {
+                    pairs.push((key.trim().to_string(), value.to_string()))
+                }
+                _ => {
+                    return Err(Error::range(format!(
+                        "args[{k}] = '{a}': expected KEY=VALUE"
+                    )))
+                }
+            }
+        }
+        let obj = load_plugins(vec![PluginSpec {
+            path: PathBuf::from(path),
+            args: pairs,
+        }])?;
+        put(out, "out", into_handle(obj))
+    })
+}
+
+/// A spacing from a plugin configuration file (TOML, as the command line's
+/// `--plugin-config`): `[[plugin]]` tables with `path` (relative to the
+/// file) and `args = { key = value, ... }`. Several plugins combine by
+/// their minimum. Errors as `bm_spacing_from_plugin`; an unreadable file
+/// is `BM_ERR_IO`, a malformed one `BM_ERR_FORMAT`.
+#[no_mangle]
+pub unsafe extern "C" fn bm_spacing_from_plugin_config(
+    path: *const c_char,
+    out: *mut *mut bm_spacing,
+) -> bm_result {
+    guard("bm_spacing_from_plugin_config", || unsafe {
+        let path = utf8(path, "path")?;
+        need(out, "out")?;
+        let file = Path::new(path);
+        if let Err(e) = std::fs::metadata(file) {
+            return Err(Error::new(
+                bm_result::BM_ERR_IO,
+                format!("{path}: cannot read the plugin configuration: {e}"),
+            ));
+        }
+        let specs = bubblemesh_plugin_host::read_config(file)
+            .map_err(|e| Error::new(bm_result::BM_ERR_FORMAT, e))?;
+        put(out, "out", into_handle(load_plugins(specs)?))
     })
 }
 

@@ -847,3 +847,60 @@ fn null_and_range_checks_on_the_model_builders() {
         bm_model_free(m);
     }
 }
+
+/// `bm_mesh_step_file` with a NULL spacing uses the command line's default
+/// (1/40 of the bounding-box diagonal) and meshes a solid's faces by
+/// default; a STEP mesh's ids are the file's faces and solids.
+#[test]
+fn step_file_defaults_follow_the_command_line() {
+    let path = std::ffi::CString::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fixtures/step/ball.step"
+    ))
+    .unwrap();
+    let mut mesh = null_mut();
+    ok(unsafe { bm_mesh_step_file(path.as_ptr(), null(), -1, 0, &mut mesh) });
+    let a = arrays(mesh);
+    let mut ntet = usize::MAX;
+    ok(unsafe { bm_mesh_tetrahedron_count(mesh, &mut ntet) });
+    assert_eq!(ntet, 0, "dim -1 on a solid meshes its faces only");
+    assert!(a.tri_ent.iter().all(|e| e.dim == 2 && e.id == 0));
+    // mean edge length against d = diag / 40 (the ball's box is 2 x 2 x 2)
+    let d = (12.0f64).sqrt() / 40.0;
+    let mut sum = 0.0;
+    for t in &a.tris {
+        for k in 0..3 {
+            sum += norm(sub(a.xyz[t[k] as usize], a.xyz[t[(k + 1) % 3] as usize]));
+        }
+    }
+    let mean = sum / (3 * a.tris.len()) as f64;
+    assert!(
+        (0.8 * d..1.25 * d).contains(&mean),
+        "mean edge {mean}, default d {d}"
+    );
+    unsafe { bm_mesh_free(mesh) };
+    // a plugin spacing with the STEP shortcut, and BUSY while it is used
+    // is covered in C; here: an options struct with a progress callback
+    // that cancels works for STEP too
+    unsafe extern "C" fn stop(
+        _u: *mut c_void,
+        _p: *const c_char,
+        _d: c_int,
+        _i: u32,
+        step: usize,
+        _m: usize,
+    ) -> c_int {
+        (step >= 3) as c_int
+    }
+    let mut o = std::mem::MaybeUninit::<bm_options>::uninit();
+    ok(unsafe { bm_options_init(o.as_mut_ptr()) });
+    let mut o = unsafe { o.assume_init() };
+    o.progress = Some(stop);
+    let mut mesh = null_mut();
+    fails(
+        unsafe { bm_mesh_step_file_ex(path.as_ptr(), null(), &o, &mut mesh) },
+        BM_ERR_CANCELLED,
+        "cancelled by the progress callback",
+    );
+    assert!(mesh.is_null());
+}

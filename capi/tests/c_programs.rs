@@ -1,6 +1,6 @@
 //! The C programs in tests/c/, compiled with the system C compiler against
 //! the libraries cargo just built, run natively and under valgrind; and the
-//! Python ctypes example.
+//! Python ctypes examples.
 //!
 //! The shared library is the one cargo built for this test run: it sits
 //! next to this test's executable (target/<profile>/deps). A missing tool
@@ -28,6 +28,29 @@ fn lib_dir() -> PathBuf {
         so_name(),
         exe.display()
     );
+}
+
+/// The shared library of the workspace plugin crate `crate_name` (e.g.
+/// "bubblemesh_plugin_curvature"): the plugins are dev-dependencies of this
+/// crate, so cargo builds their cdylibs next to the test executables.
+fn plugin_lib(crate_name: &str) -> PathBuf {
+    let file = format!(
+        "{}{crate_name}{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    );
+    let exe = std::env::current_exe().unwrap();
+    let deps = exe.parent().unwrap().to_path_buf();
+    for d in [deps.clone(), deps.parent().unwrap().to_path_buf()] {
+        if d.join(&file).exists() {
+            return d.join(&file);
+        }
+    }
+    panic!("{file} not found next to {}", exe.display());
+}
+
+fn fixtures() -> PathBuf {
+    manifest_dir().join("../fixtures/step")
 }
 
 fn so_name() -> &'static str {
@@ -200,4 +223,116 @@ fn python_ctypes_example() {
     assert!(stdout.contains("checks passed"), "{stdout}");
     let mesh = bubblemesh_io::read(&out).unwrap();
     assert!(mesh.triangles.len() > 50);
+}
+
+/// The STEP shortcut: cube.step meshed into a closed surface and into
+/// tetrahedra; missing, garbage, truncated and unsupported files refused.
+fn step_file(under_valgrind: bool) {
+    if !have("cc", "--version") || (under_valgrind && !have("valgrind", "--version")) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile("step_file", dir.path(), false);
+    let mut cmd = if under_valgrind {
+        valgrind(&exe)
+    } else {
+        Command::new(&exe)
+    };
+    let stdout = run(cmd.arg(fixtures()).arg(dir.path()), "step_file");
+    assert!(stdout.contains("all checks passed"), "{stdout}");
+}
+
+#[test]
+fn step_file_meshes_a_fixture_and_refuses_bad_files() {
+    step_file(false);
+}
+
+#[test]
+fn step_file_under_valgrind() {
+    step_file(true);
+}
+
+/// dim 3 on a box (planar faces) and a ball (a callback sphere with a
+/// contains callback).
+#[test]
+fn volumes_through_callbacks() {
+    if !have("cc", "--version") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile("volume", dir.path(), false);
+    let stdout = run(&mut Command::new(&exe), "volume");
+    assert!(stdout.contains("all checks passed"), "{stdout}");
+}
+
+#[test]
+fn volumes_under_valgrind() {
+    if !have("cc", "--version") || !have("valgrind", "--version") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile("volume", dir.path(), false);
+    // d = 0.2 is already the coarsest the unit sphere allows (about a fifth
+    // of the radius), so valgrind runs the native case
+    let stdout = run(&mut valgrind(&exe), "valgrind volume");
+    assert!(stdout.contains("all checks passed"), "{stdout}");
+}
+
+/// Spacing plugins: the curvature plugin on a callback torus, and plugins
+/// that cannot be used.
+fn plugin_spacing(under_valgrind: bool) {
+    if !have("cc", "--version") || (under_valgrind && !have("valgrind", "--version")) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let exe = compile("plugin_spacing", dir.path(), false);
+    let mut cmd = if under_valgrind {
+        valgrind(&exe)
+    } else {
+        Command::new(&exe)
+    };
+    cmd.arg(plugin_lib("bubblemesh_plugin_curvature"))
+        .arg(plugin_lib("bubblemesh_plugin_testbad"))
+        .arg(dir.path());
+    if under_valgrind {
+        // coarser under valgrind (same checks)
+        cmd.arg("0.04");
+    }
+    let stdout = run(&mut cmd, "plugin_spacing");
+    assert!(stdout.contains("all checks passed"), "{stdout}");
+}
+
+#[test]
+fn plugin_spacing_loads_the_curvature_plugin_and_refuses_bad_ones() {
+    plugin_spacing(false);
+}
+
+#[test]
+fn plugin_spacing_under_valgrind() {
+    plugin_spacing(true);
+}
+
+/// The Python example meshing a CadQuery-exported part through
+/// bm_mesh_step_file: a closed surface enclosing the manifest's CAD volume
+/// within 1 %.
+#[test]
+fn python_step_example() {
+    if !have("python3", "--version") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("part.msh");
+    let script = manifest_dir().join("examples/python/mesh_step.py");
+    let stdout = run(
+        Command::new("python3")
+            .arg(&script)
+            .arg("--lib")
+            .arg(lib_dir().join(so_name()))
+            .arg("-o")
+            .arg(&out),
+        "mesh_step.py",
+    );
+    assert!(stdout.contains("checks passed"), "{stdout}");
+    let mesh = bubblemesh_io::read(&out).unwrap();
+    assert!(mesh.triangles.len() > 500);
 }

@@ -8,15 +8,15 @@ The part is what this CadQuery script exports to STEP:
     cq.exporters.export(part, "plate.step")
 
 that is, a 2 x 2 plate with a hole of diameter 1 through its centre. Its top
-face is meshed here. STEP import is not in the library yet:
-`bm_mesh_step_file` returns BM_ERR_UNSUPPORTED (pass --step FILE to see the
-message). Until it lands, the host describes the face itself, the way a CAD
-program answers the library's queries: its vertices, its edges as curve
-callbacks (four lines and the hole's circle), and the plane face bounded by
-the outer loop and the hole.
+face is meshed here the way a CAD program hands its model to the library:
+the host describes the face itself, answering the library's queries — its
+vertices, its edges as curve callbacks (four lines and the hole's circle),
+and the plane face bounded by the outer loop and the hole. (A host that has
+the STEP file can pass it whole instead: see mesh_step.py, which uses
+`bm_mesh_step_file`.)
 
 Usage:
-    python3 mesh_plate.py [--lib PATH] [--size D] [-o OUT.vtu] [--step FILE]
+    python3 mesh_plate.py [--lib PATH] [--size D] [-o OUT.vtu]
 
 --lib defaults to $BUBBLEMESH_LIB, else target/{release,debug} of this
 repository (build with `cargo build --release -p bubblemesh-capi`).
@@ -32,7 +32,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.normpath(os.path.join(HERE, "..", "..", ".."))
 
-BM_OK, BM_ERR_UNSUPPORTED = 0, 8
+BM_OK = 0
 
 # --- the C declarations we use (see capi/include/bubblemesh.h) -------------
 
@@ -80,7 +80,6 @@ def load(path):
         "bm_spacing_from_callback": ([SPACING_FN, P, C.POINTER(P)], C.c_int),
         "bm_spacing_free": ([P], None),
         "bm_mesh_generate": ([P, P, C.c_int, C.c_int, C.POINTER(P)], C.c_int),
-        "bm_mesh_step_file": ([C.c_char_p, P, C.c_int, C.c_int, C.POINTER(P)], C.c_int),
         "bm_mesh_free": ([P], None),
         "bm_mesh_node_count": ([P, C.POINTER(C.c_size_t)], C.c_int),
         "bm_mesh_triangle_count": ([P, C.POINTER(C.c_size_t)], C.c_int),
@@ -175,7 +174,6 @@ def main():
     ap.add_argument("--lib")
     ap.add_argument("--size", type=float, default=0.1, help="node spacing far from the hole")
     ap.add_argument("-o", "--output", help="write the mesh (.msh, .vtu, .stl, .obj, .mesh)")
-    ap.add_argument("--step", help="try the STEP shortcut first (not available yet)")
     args = ap.parse_args()
 
     lib = load(find_lib(args.lib))
@@ -191,21 +189,12 @@ def main():
     check(lib, lib.bm_spacing_from_callback(spacing_cb, None, C.byref(spacing)))
 
     mesh = C.c_void_p()
-    if args.step:
-        rc = lib.bm_mesh_step_file(args.step.encode(), spacing, -1, 0, C.byref(mesh))
-        if rc == BM_ERR_UNSUPPORTED:
-            print("STEP shortcut:", lib.bm_last_error_message().decode())
-            print("describing the part through callbacks instead")
-        else:
-            check(lib, rc)
-
     keep = []
     model = C.c_void_p()
     check(lib, lib.bm_model_new(C.byref(model)))
     try:
-        if not mesh:
-            hole_edge = describe_plate(lib, model, keep)
-            check(lib, lib.bm_mesh_generate(model, spacing, 2, 0, C.byref(mesh)))
+        hole_edge = describe_plate(lib, model, keep)
+        check(lib, lib.bm_mesh_generate(model, spacing, 2, 0, C.byref(mesh)))
         nn, nt, nl = C.c_size_t(), C.c_size_t(), C.c_size_t()
         check(lib, lib.bm_mesh_node_count(mesh, C.byref(nn)))
         check(lib, lib.bm_mesh_triangle_count(mesh, C.byref(nt)))

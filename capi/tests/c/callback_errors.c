@@ -124,6 +124,20 @@ static int spacing_cb(void *user, double x, double y, double z, int dim,
   return 0;
 }
 
+typedef struct {
+  int fail;
+  long calls;
+} ball_t;
+
+static int contains_cb(void *user, const double *p, int *inside) {
+  ball_t *b = (ball_t *)user;
+  b->calls++;
+  if (b->fail)
+    return 9;
+  *inside = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] < 4.0;
+  return 0;
+}
+
 static int cancel_at_10(void *user, const char *phase, int dim, uint32_t id,
                         size_t step, size_t max_steps) {
   int *calls = (int *)user;
@@ -292,20 +306,34 @@ int main(void) {
   EXPECT(bm_spacing_from_expr("0.1 + (x", &cbs), BM_ERR_SPACING,
          "0.1 + (x");
   EXPECT(bm_spacing_from_expr("-1", &cbs), BM_ERR_SPACING, "> 0");
-  EXPECT(bm_spacing_from_plugin("libspacing.so", &cbs), BM_ERR_UNSUPPORTED,
-         "plugins are not supported");
-  EXPECT(bm_mesh_step_file("part.step", coarse, -1, 0, &mesh),
-         BM_ERR_UNSUPPORTED, "STEP import is not available");
+  const char *no_equals[1] = {"eps"};
+  EXPECT(bm_spacing_from_plugin("libspacing.so", no_equals, 1, &cbs),
+         BM_ERR_RANGE, "expected KEY=VALUE");
+  EXPECT(bm_spacing_from_plugin("libspacing.so", NULL, 1, &cbs), BM_ERR_NULL,
+         "'args'");
+  EXPECT(bm_spacing_from_plugin("libspacing.so", NULL, 0, &cbs), BM_ERR_IO,
+         "no such file");
+  EXPECT(bm_mesh_step_file("part.step", coarse, 7, 0, &mesh), BM_ERR_RANGE,
+         "dim = 7");
+  EXPECT(bm_mesh_step_file("part.step", coarse, -1, 0, NULL), BM_ERR_NULL,
+         "'out'");
   bm_spacing_free(cbs); /* still the callback spacing: untouched by failures */
 
-  /* volumes are stored, but not meshed */
+  /* a volume whose in/out callback fails */
   uint32_t vol;
-  OK(bm_model_add_volume(tm, &tf, 1, NULL, NULL, &vol));
+  ball_t inout = {0};
+  bm_volume_callbacks vcb = {contains_cb};
+  OK(bm_model_add_volume(tm, &tf, 1, &vcb, &inout, &vol));
   torus.mode = FINE;
-  EXPECT(bm_mesh_generate(tm, coarse, 3, 0, &mesh), BM_ERR_UNSUPPORTED,
-         "volume meshing");
-  EXPECT(bm_mesh_generate(tm, coarse, -1, 1, &mesh), BM_ERR_UNSUPPORTED,
-         "volume meshing");
+  inout.fail = 1;
+  EXPECT(bm_mesh_generate(tm, coarse, 3, 0, &mesh), BM_ERR_CALLBACK,
+         "the volume callback 'contains' of volume 0");
+  EXPECT(bm_mesh_generate(tm, coarse, -1, 1, &mesh), BM_ERR_CALLBACK,
+         "returned 9 (failure)");
+  if (inout.calls == 0) {
+    fprintf(stderr, "FAIL: the contains callback was never called\n");
+    failures++;
+  }
 
   /* the last error survives reading it, and truncates into short buffers */
   char small[8];
