@@ -9,14 +9,18 @@
 //!   `EDGE_CURVE` and `VERTEX_POINT` of the file ends up in the model, or the
 //!   read fails with an error naming the entity (`#id TYPE`) and the reason.
 //!
-//! Not yet done: shells and solids built with truck-modeling (issue 4).
+//! - [`from_truck_solid`] / [`from_truck_shell`]: B-reps built in code with
+//!   truck-modeling, their geometry converted the same way (see [`modeling`]).
 
 // `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod curve_tools;
+mod face_build;
 mod face_view;
+pub mod modeling;
 pub mod step;
 
 pub use face_view::FaceView;
+pub use modeling::{from_truck_shell, from_truck_solid, TruckError};
 pub use step::{parse_step, read_step, StepError, StepInfo, StepModel};

@@ -1,0 +1,304 @@
+//! A face's geometry from its boundary loops, shared by the STEP and
+//! truck-modeling paths: the loops are sampled and mapped onto the surface
+//! (inverse search with a hint), unwrapped across periodic seams, and the
+//! face gets a [`FaceView`] of its surface: periodic only where a loop wraps
+//! around, its (u,v) box otherwise, turned where the face runs past its
+//! wrapping loop to the top of its range.
+
+use std::sync::Arc;
+
+use bubblemesh_core::geom::Surface;
+use bubblemesh_core::model::{Face, Loop, Model};
+
+use crate::face_view::FaceView;
+
+fn errs(m: impl Into<String>) -> String {
+    m.into()
+}
+
+/// The face on `base` bounded by `loops` (model edges, each loop closed,
+/// oriented with the face on its left seen from the face's normal, which is
+/// S_u × S_v of `base` when `same_sense`), with `embedded` vertices (poles,
+/// apexes). `planar`: `base` is a plane (the face keeps it as is). `extent`:
+/// the model's size, for the distance checks (boundary points must lie
+/// within 1e-3 × extent of the surface). Errors are messages about the
+/// face (the caller names it).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn face_from_loops(
+    base: Arc<dyn Surface>,
+    planar: bool,
+    same_sense: bool,
+    loops: Vec<Loop>,
+    embedded: Vec<u32>,
+    model: &Model,
+    extent: f64,
+    name: String,
+) -> Result<Face, String> {
+    // boundary samples in the base surface's (u,v), each loop unwrapped
+    let far = 1e-3 * extent;
+    let mut hint: Option<[f64; 2]> = None;
+    let mut loops_uv: Vec<Vec<[f64; 2]>> = Vec::new();
+    let invert = |p: &bubblemesh_core::geom::P3,
+                  hint: Option<[f64; 2]>,
+                  what: &str|
+     -> Result<[f64; 2], String> {
+        let uv = base.inverse(p, hint).ok_or_else(|| {
+            format!(
+                "{what} ({:.6}, {:.6}, {:.6}) cannot be mapped onto its surface",
+                p.x, p.y, p.z
+            )
+        })?;
+        let d = (base.point(uv[0], uv[1]) - p).norm();
+        if !(d <= far) {
+            return Err(format!(
+                "{what} ({:.6}, {:.6}, {:.6}) lies {d:.3e} off its surface",
+                p.x, p.y, p.z
+            ));
+        }
+        Ok(uv)
+    };
+    const K: usize = 8;
+    for l in &loops.iter().map(|l| l.edges.clone()).collect::<Vec<_>>() {
+        let mut pts = Vec::new();
+        for u in l {
+            let e = &model.edges[u.edge as usize];
+            for k in 0..K {
+                let s = k as f64 / K as f64;
+                let s = if u.forward { s } else { 1.0 - s };
+                let p = e.curve.point(e.t0 + (e.t1 - e.t0) * s);
+                let uv = invert(&p, hint, "boundary point")?;
+                hint = Some(uv);
+                pts.push(uv);
+            }
+        }
+        loops_uv.push(pts);
+    }
+    let periods = base.periods();
+    let (bu, bv) = base.domain();
+    let bdom = [bu, bv];
+    let mut keep = [false, false];
+    // each loop's net displacement in the periodic directions
+    let mut nets: Vec<[f64; 2]> = Vec::with_capacity(loops_uv.len());
+    for l in loops_uv.iter_mut() {
+        let mut net = [0.0f64; 2];
+        for k in 1..=l.len() {
+            let prev = l[k - 1];
+            let cur = if k < l.len() { l[k] } else { l[0] };
+            for c in 0..2 {
+                if let Some(p) = periods[c] {
+                    let d = cur[c] - prev[c];
+                    let d = d - p * (d / p).round();
+                    net[c] += d;
+                    if k < l.len() {
+                        l[k][c] = prev[c] + d;
+                    }
+                }
+            }
+        }
+        for c in 0..2 {
+            if let Some(p) = periods[c] {
+                if net[c].abs() > 0.5 * p {
+                    keep[c] = true;
+                }
+            }
+        }
+        nets.push(net);
+    }
+    if loops_uv.is_empty() {
+        keep = [periods[0].is_some(), periods[1].is_some()];
+    }
+    // other loops (and embedded vertices) moved next to the first loop
+    let centre = |l: &[[f64; 2]]| {
+        let n = l.len().max(1) as f64;
+        [
+            l.iter().map(|x| x[0]).sum::<f64>() / n,
+            l.iter().map(|x| x[1]).sum::<f64>() / n,
+        ]
+    };
+    let c0 = loops_uv.first().map(|l| centre(l));
+    let mut extra: Vec<[f64; 2]> = Vec::new();
+    for &v in &embedded {
+        let p = model.vertices[v as usize].point;
+        extra.push(invert(&p, hint, "vertex")?);
+    }
+    if let Some(c0) = c0 {
+        for l in loops_uv.iter_mut().skip(1) {
+            let c = centre(l);
+            for k in 0..2 {
+                if let (Some(p), false) = (periods[k], keep[k]) {
+                    let s = p * ((c0[k] - c[k]) / p).round();
+                    for x in l.iter_mut() {
+                        x[k] += s;
+                    }
+                }
+            }
+        }
+        for x in extra.iter_mut() {
+            for k in 0..2 {
+                if let (Some(p), false) = (periods[k], keep[k]) {
+                    x[k] += p * ((c0[k] - x[k]) / p).round();
+                }
+            }
+        }
+    }
+    if planar {
+        let mut order: Vec<usize> = (0..loops.len()).collect();
+        order.sort_by(|&i, &j| area(&loops_uv[j]).total_cmp(&area(&loops_uv[i])));
+        return Ok(Face {
+            surface: base,
+            loops: order.iter().map(|&i| loops[i].clone()).collect(),
+            embedded_edges: vec![],
+            embedded_vertices: embedded,
+            name: Some(name),
+        });
+    }
+    if keep[0] && keep[1] && !loops.is_empty() {
+        return Err(errs("a face with boundary loops that wraps around its surface in both directions is not supported",
+        ));
+    }
+    // A face that wraps around in one direction c may run from its
+    // wrapping loops to an end of the other direction o where the surface
+    // collapses (a cap to a sphere's pole): which end follows from the
+    // loops' sense. A loop keeps the face on its left, seen from the face's
+    // normal (S_u × S_v when same_sense): running +u it has the face at +v,
+    // running +v it has the face at −u. `open_end` is Some(1) when the face
+    // reaches the +o end, Some(0) the −o end, None when wrapping loops
+    // bound it on both sides (a band).
+    let mut open_end: Option<usize> = None;
+    let wrap_dir = match keep {
+        [true, false] => Some(0),
+        [false, true] => Some(1),
+        _ => None,
+    };
+    if let (Some(c), false) = (wrap_dir, loops_uv.is_empty()) {
+        let p = periods[c].expect("a kept direction is periodic");
+        let sense = if same_sense { 1 } else { -1 };
+        let towards_plus: i32 = nets
+            .iter()
+            .filter(|n| n[c].abs() > 0.5 * p)
+            .map(|n| if n[c] > 0.0 { 1 } else { -1 })
+            .sum::<i32>()
+            * sense
+            * if c == 0 { 1 } else { -1 };
+        open_end = match towards_plus {
+            0 => None,
+            1 => Some(1),
+            -1 => Some(0),
+            k => {
+                return Err(errs(format!(
+                    "its boundary wraps around its surface {k} times more one way than the other"
+                )))
+            }
+        };
+    }
+    // the view's box
+    let mut dom = bdom;
+    for c in 0..2 {
+        if keep[c] {
+            continue;
+        }
+        // a face without edge loops (a whole sphere bounded only by the
+        // VERTEX_LOOP at its pole) spans the surface's whole range: its
+        // pole points alone would collapse the range to a line
+        let vals: Vec<f64> = if loops_uv.iter().any(|l| !l.is_empty()) {
+            loops_uv
+                .iter()
+                .flatten()
+                .chain(&extra)
+                .map(|x| x[c])
+                .collect()
+        } else {
+            Vec::new()
+        };
+        if vals.is_empty() {
+            if !(bdom[c][0].is_finite() && bdom[c][1].is_finite()) {
+                return Err(errs("a face with no boundary on an unbounded surface"));
+            }
+            continue;
+        }
+        let lo = vals.iter().cloned().fold(f64::INFINITY, f64::min);
+        let hi = vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        // exactly the boundary's range: on a periodic view the engine reads
+        // the ends of the domain as where the face ends (or caps at a pole)
+        let (mut a, mut b) = (lo, hi);
+        if periods[c].is_none() {
+            a = a.max(bdom[c][0]);
+            b = b.min(bdom[c][1]);
+        } else if let Some(p) = periods[c] {
+            if b - a > p {
+                let m = 0.5 * (a + b);
+                a = m - 0.5 * p;
+                b = m + 0.5 * p;
+            }
+        }
+        dom[c] = [a, b];
+        // the face runs on past its loops to a collapsed end in c: its
+        // pole or apex vertex when the file has one (the range already
+        // reaches it), else the surface's end
+        let loop_lo = loops_uv
+            .iter()
+            .flatten()
+            .map(|x| x[c])
+            .fold(f64::INFINITY, f64::min);
+        let loop_hi = loops_uv
+            .iter()
+            .flatten()
+            .map(|x| x[c])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let reached = |end: usize| {
+            let tol = 1e-9 * (bdom[c][1] - bdom[c][0]).abs().min(1e6).max(1.0);
+            if end == 1 {
+                dom[c][1] > loop_hi + tol
+            } else {
+                dom[c][0] < loop_lo - tol
+            }
+        };
+        if let Some(end) = open_end.filter(|&e| wrap_dir == Some(1 - c) && !reached(e)) {
+            let e = bdom[c][end];
+            if !e.is_finite() {
+                return Err(errs(
+                    "it is bounded on one side only by its loops around an unbounded surface",
+                ));
+            }
+            dom[c][end] = e;
+        }
+    }
+    let view_periods = [
+        periods[0].filter(|_| keep[0]),
+        periods[1].filter(|_| keep[1]),
+    ];
+    let mut view = FaceView::new(base, (dom[0], dom[1]), view_periods);
+    if open_end == Some(1) {
+        // the engine reads the far (+) end of the wrapped face's range as
+        // outside: turn the view so the face's open end is at the near end
+        view = view.turned();
+    }
+    let loops = if view_periods.iter().all(|p| p.is_none()) {
+        let mut order: Vec<usize> = (0..loops.len()).collect();
+        order.sort_by(|&i, &j| area(&loops_uv[j]).total_cmp(&area(&loops_uv[i])));
+        order.iter().map(|&i| loops[i].clone()).collect()
+    } else {
+        loops
+    };
+    let surface: Arc<dyn Surface> = Arc::new(view);
+    Ok(Face {
+        surface,
+        loops,
+        embedded_edges: vec![],
+        embedded_vertices: embedded,
+        name: Some(name),
+    })
+}
+
+/// |signed area| of a closed polygon in (u,v).
+fn area(l: &[[f64; 2]]) -> f64 {
+    let n = l.len();
+    (0..n)
+        .map(|k| {
+            let (a, b) = (l[k], l[(k + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum::<f64>()
+        .abs()
+        * 0.5
+}
