@@ -338,11 +338,55 @@ fn fill_caps(
         }
     }
     // hole half-edges, directed with the hole on their left
-    let hole: Vec<[usize; 2]> = uses
+    let mut hole: Vec<[usize; 2]> = uses
         .iter()
         .filter(|(k, v)| v.2 == 1 && !bset.contains(k))
         .map(|(_, v)| [v.1, v.0])
         .collect();
+    // A boundary segment no triangle uses bounds the hole too: a singular
+    // point next to the face's boundary took the triangles on that segment
+    // with it (seen on the corner spheres of a filleted box, where the
+    // whole face is within a few spacings of its pole). Each such segment
+    // is turned so that the hole's edges close into loops: in-degree equals
+    // out-degree at every vertex.
+    let mut unused: Vec<[usize; 2]> = boundary
+        .iter()
+        .filter(|s| !uses.contains_key(&(s[0].min(s[1]), s[0].max(s[1]))))
+        .cloned()
+        .collect();
+    if !unused.is_empty() {
+        let mut excess: HashMap<usize, i32> = HashMap::new(); // out − in
+        for &[a, b] in &hole {
+            *excess.entry(a).or_default() += 1;
+            *excess.entry(b).or_default() -= 1;
+        }
+        // a segment whose turn is forced by an open chain end goes first;
+        // the rest keep their direction (a hole bounded by segments alone)
+        for _ in 0..=unused.len() {
+            let before = unused.len();
+            unused.retain(|&[a, b]| {
+                let (ea, eb) = (
+                    excess.get(&a).copied().unwrap_or(0),
+                    excess.get(&b).copied().unwrap_or(0),
+                );
+                let dir = if ea < 0 || eb > 0 {
+                    [a, b]
+                } else if eb < 0 || ea > 0 {
+                    [b, a]
+                } else {
+                    return true;
+                };
+                *excess.entry(dir[0]).or_default() += 1;
+                *excess.entry(dir[1]).or_default() -= 1;
+                hole.push(dir);
+                false
+            });
+            if unused.is_empty() || unused.len() == before {
+                break;
+            }
+        }
+        hole.extend(unused);
+    }
     let mut used = vec![false; n];
     for t in tris.iter() {
         for &v in t {
@@ -444,6 +488,28 @@ fn fill_caps(
             ),
             other => other,
         })?;
+        // the cap must close the hole: every hole edge used by exactly one
+        // of its triangles (otherwise the face would come out with a hole,
+        // silently). An orphan the cap leaves out lies between a boundary
+        // segment and its curve, outside the chord polygon: the caller
+        // drops such bubbles.
+        let mut cap_uses: HashMap<(usize, usize), u32> = HashMap::new();
+        for t in &cap {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *cap_uses.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        if let Some(s) = segs
+            .iter()
+            .find(|s| cap_uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
+        {
+            let p = pts.pos[local[s[0]]];
+            return Err(ConnectError::Coarse(format!(
+                "a hole around a pole or a tight bend near ({}, {}, {}) is not closed by its tangent-plane fill",
+                p.x, p.y, p.z
+            )));
+        }
         for t in cap {
             tris.push([local[t[0]], local[t[1]], local[t[2]]]);
         }
