@@ -118,7 +118,7 @@ def check(path, size, part):
 
 def run_bubblemesh(step, out, size, timeout):
     t = time.perf_counter()
-    r = subprocess.run([BM, "mesh", step, "-o", out, "--size", str(size), "--dim", "2", "--quiet"],
+    r = subprocess.run([BM, "mesh", step, "-o", out, "--size", str(size), "--dim", "2", "--quiet", "--threads", "1"],
                        capture_output=True, text=True, timeout=timeout)
     dt = time.perf_counter() - t
     if r.returncode != 0:
