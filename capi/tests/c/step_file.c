@@ -26,47 +26,10 @@
 #include <string.h>
 
 #include "bubblemesh.h"
-
-static int failures = 0;
-
-#define CHECK(cond, ...)                                                       \
-  do {                                                                         \
-    if (!(cond)) {                                                             \
-      fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);                     \
-      fprintf(stderr, __VA_ARGS__);                                            \
-      fprintf(stderr, "\n");                                                   \
-      failures++;                                                              \
-    }                                                                          \
-  } while (0)
-
-#define OK(call)                                                               \
-  do {                                                                         \
-    bm_result rc_ = (call);                                                    \
-    if (rc_ != BM_OK) {                                                        \
-      fprintf(stderr, "FAIL %s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call, \
-              bm_result_name(rc_), bm_last_error_message());                   \
-      exit(1);                                                                 \
-    }                                                                          \
-  } while (0)
+#include "check.h"
 
 /* `call` must return `code` with a message containing `n1` and `n2`, and
    leave *out NULL */
-#define EXPECT(call, out, code, n1, n2)                                        \
-  do {                                                                         \
-    bm_result rc_ = (call);                                                    \
-    const char *msg_ = bm_last_error_message();                                \
-    if (rc_ != (code) || strstr(msg_, (n1)) == NULL ||                         \
-        strstr(msg_, (n2)) == NULL || (out) != NULL) {                         \
-      fprintf(stderr,                                                          \
-              "FAIL %s:%d: %s\n  gave %s \"%s\"\n  expected %s with \"%s\" "   \
-              "and \"%s\"\n",                                                  \
-              __FILE__, __LINE__, #call, bm_result_name(rc_), msg_,            \
-              bm_result_name(code), (n1), (n2));                               \
-      failures++;                                                              \
-    } else {                                                                   \
-      printf("ok   %-16s %s\n", bm_result_name(rc_), msg_);                    \
-    }                                                                          \
-  } while (0)
 
 static void sub(const double *a, const double *b, double *o) {
   o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2];

@@ -29,37 +29,11 @@
 #include <string.h>
 
 #include "bubblemesh.h"
-
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
+#include "check.h"
 
 static const double R_MAJOR = 1.0, R_MINOR = 0.4;
 static const double PLATE_Z = -0.8, HALF = 1.0, HOLE_R = 0.5;
 static double SPACING = 0.1;
-
-static int failures = 0;
-
-#define CHECK(cond, ...)                                                       \
-  do {                                                                         \
-    if (!(cond)) {                                                             \
-      fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);                     \
-      fprintf(stderr, __VA_ARGS__);                                            \
-      fprintf(stderr, "\n");                                                   \
-      failures++;                                                              \
-    }                                                                          \
-  } while (0)
-
-/* a bm_* call that must succeed */
-#define OK(call)                                                               \
-  do {                                                                         \
-    bm_result rc_ = (call);                                                    \
-    if (rc_ != BM_OK) {                                                        \
-      fprintf(stderr, "FAIL %s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call, \
-              bm_result_name(rc_), bm_last_error_message());                   \
-      exit(1);                                                                 \
-    }                                                                          \
-  } while (0)
 
 /* ---- geometry callbacks ------------------------------------------------ */
 

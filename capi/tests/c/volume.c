@@ -24,32 +24,7 @@
 #include <string.h>
 
 #include "bubblemesh.h"
-
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
-static int failures = 0;
-
-#define CHECK(cond, ...)                                                       \
-  do {                                                                         \
-    if (!(cond)) {                                                             \
-      fprintf(stderr, "FAIL %s:%d: ", __FILE__, __LINE__);                     \
-      fprintf(stderr, __VA_ARGS__);                                            \
-      fprintf(stderr, "\n");                                                   \
-      failures++;                                                              \
-    }                                                                          \
-  } while (0)
-
-#define OK(call)                                                               \
-  do {                                                                         \
-    bm_result rc_ = (call);                                                    \
-    if (rc_ != BM_OK) {                                                        \
-      fprintf(stderr, "FAIL %s:%d: %s -> %s: %s\n", __FILE__, __LINE__, #call, \
-              bm_result_name(rc_), bm_last_error_message());                   \
-      exit(1);                                                                 \
-    }                                                                          \
-  } while (0)
+#include "check.h"
 
 static void sub(const double *a, const double *b, double *o) {
   o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2];
