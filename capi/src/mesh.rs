@@ -70,6 +70,20 @@ pub struct bm_options {
     pub progress_user: *mut c_void,
 }
 
+impl bm_options {
+    /// The options of the calls without `_ex`: default step limit, no
+    /// progress callback.
+    fn plain(dim: c_int, fast: c_int) -> Self {
+        bm_options {
+            dim,
+            fast,
+            max_steps: 0,
+            progress: None,
+            progress_user: std::ptr::null_mut(),
+        }
+    }
+}
+
 #[repr(C)]
 pub(crate) struct MeshObj {
     magic: u64,
@@ -91,17 +105,7 @@ unsafe fn mesh_obj<'a>(p: *const bm_mesh) -> Result<&'a MeshObj> {
 #[no_mangle]
 pub unsafe extern "C" fn bm_options_init(options: *mut bm_options) -> bm_result {
     guard("bm_options_init", || unsafe {
-        put(
-            options,
-            "options",
-            bm_options {
-                dim: -1,
-                fast: 0,
-                max_steps: 0,
-                progress: None,
-                progress_user: std::ptr::null_mut(),
-            },
-        )
+        put(options, "options", bm_options::plain(-1, 0))
     })
 }
 
@@ -253,18 +257,7 @@ pub unsafe extern "C" fn bm_mesh_generate(
     out: *mut *mut bm_mesh,
 ) -> bm_result {
     guard("bm_mesh_generate", || {
-        generate(
-            model,
-            spacing,
-            bm_options {
-                dim,
-                fast,
-                max_steps: 0,
-                progress: None,
-                progress_user: std::ptr::null_mut(),
-            },
-            out,
-        )
+        generate(model, spacing, bm_options::plain(dim, fast), out)
     })
 }
 
@@ -387,18 +380,7 @@ pub unsafe extern "C" fn bm_mesh_step_file(
     out: *mut *mut bm_mesh,
 ) -> bm_result {
     guard("bm_mesh_step_file", || {
-        step_file(
-            path,
-            spacing,
-            bm_options {
-                dim,
-                fast,
-                max_steps: 0,
-                progress: None,
-                progress_user: std::ptr::null_mut(),
-            },
-            out,
-        )
+        step_file(path, spacing, bm_options::plain(dim, fast), out)
     })
 }
 

@@ -138,178 +138,192 @@ fn valgrind(exe: &Path) -> Command {
     c
 }
 
-#[test]
-fn torus_and_plate_through_callbacks() {
-    if !have("cc", "--version") {
-        return;
+/// How a C program runs: linked against the shared library, linked
+/// statically, or under valgrind (shared).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum How {
+    Native,
+    Static,
+    Valgrind,
+}
+
+/// The success line every C program prints last.
+const PASSED: &str = "all checks passed";
+
+/// Compiles tests/c/<name>.c into a temporary directory, runs it `how`
+/// with the arguments `args` makes from that directory, and asserts that
+/// it printed `passed`. Returns the directory (with what the program
+/// wrote), or None when the machine lacks `cc` (or valgrind).
+fn run_c(
+    name: &str,
+    how: How,
+    args: impl FnOnce(&Path) -> Vec<std::ffi::OsString>,
+    passed: &str,
+) -> Option<tempfile::TempDir> {
+    if !have("cc", "--version") || (how == How::Valgrind && !have("valgrind", "--version")) {
+        return None;
     }
     let dir = tempfile::tempdir().unwrap();
-    let exe = compile("torus_plate", dir.path(), false);
-    let msh = dir.path().join("torus_plate.msh");
-    let stdout = run(Command::new(&exe).arg(&msh), "torus_plate");
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+    let exe = compile(name, dir.path(), how == How::Static);
+    let mut cmd = if how == How::Valgrind {
+        valgrind(&exe)
+    } else {
+        Command::new(&exe)
+    };
+    cmd.args(args(dir.path()));
+    let stdout = run(&mut cmd, &format!("{name} ({how:?})"));
+    assert!(stdout.contains(passed), "{stdout}");
+    Some(dir)
+}
+
+fn os(args: &[&str]) -> Vec<std::ffi::OsString> {
+    args.iter().map(|a| a.into()).collect()
+}
+
+#[test]
+fn torus_and_plate_through_callbacks() {
+    let Some(dir) = run_c(
+        "torus_plate",
+        How::Native,
+        |d| vec![d.join("torus_plate.msh").into()],
+        PASSED,
+    ) else {
+        return;
+    };
     // the file it wrote reads back with the same entities
-    let mesh = bubblemesh_io::read(&msh).unwrap();
+    let mesh = bubblemesh_io::read(&dir.path().join("torus_plate.msh")).unwrap();
     let faces: std::collections::BTreeSet<u32> =
         mesh.triangles.iter().map(|t| t.entity.id).collect();
     assert_eq!(faces.into_iter().collect::<Vec<_>>(), vec![0, 1]);
 }
 
+/// A coarser spacing keeps valgrind's run short; the checks are the same.
 #[test]
 fn torus_and_plate_under_valgrind() {
-    if !have("cc", "--version") || !have("valgrind", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("torus_plate", dir.path(), false);
-    // a coarser spacing keeps valgrind's run short; the checks are the same
-    let stdout = run(valgrind(&exe).args(["-d", "0.15"]), "valgrind torus_plate");
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+    run_c(
+        "torus_plate",
+        How::Valgrind,
+        |_| os(&["-d", "0.15"]),
+        PASSED,
+    );
 }
 
 #[test]
 fn torus_and_plate_linked_statically() {
-    if !have("cc", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("torus_plate", dir.path(), true);
-    let stdout = run(
-        Command::new(&exe).args(["-d", "0.15"]),
-        "torus_plate (static)",
-    );
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+    run_c("torus_plate", How::Static, |_| os(&["-d", "0.15"]), PASSED);
 }
 
 #[test]
 fn failing_callbacks_and_bad_arguments_give_codes_and_messages() {
-    if !have("cc", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("callback_errors", dir.path(), false);
-    let stdout = run(&mut Command::new(&exe), "callback_errors");
-    assert!(stdout.contains("all cases behaved"), "{stdout}");
+    run_c(
+        "callback_errors",
+        How::Native,
+        |_| vec![],
+        "all cases behaved",
+    );
 }
 
 #[test]
 fn failing_callbacks_under_valgrind() {
-    if !have("cc", "--version") || !have("valgrind", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("callback_errors", dir.path(), false);
-    let stdout = run(&mut valgrind(&exe), "valgrind callback_errors");
-    assert!(stdout.contains("all cases behaved"), "{stdout}");
-}
-
-#[test]
-fn python_ctypes_example() {
-    if !have("python3", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("plate.vtu");
-    let script = manifest_dir().join("examples/python/mesh_plate.py");
-    let stdout = run(
-        Command::new("python3")
-            .arg(&script)
-            .arg("--lib")
-            .arg(lib_dir().join(so_name()))
-            .arg("-o")
-            .arg(&out),
-        "mesh_plate.py",
+    run_c(
+        "callback_errors",
+        How::Valgrind,
+        |_| vec![],
+        "all cases behaved",
     );
-    assert!(stdout.contains("checks passed"), "{stdout}");
-    let mesh = bubblemesh_io::read(&out).unwrap();
-    assert!(mesh.triangles.len() > 50);
 }
 
 /// The STEP shortcut: cube.step meshed into a closed surface and into
 /// tetrahedra; missing, garbage, truncated and unsupported files refused.
-fn step_file(under_valgrind: bool) {
-    if !have("cc", "--version") || (under_valgrind && !have("valgrind", "--version")) {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("step_file", dir.path(), false);
-    let mut cmd = if under_valgrind {
-        valgrind(&exe)
-    } else {
-        Command::new(&exe)
-    };
-    let stdout = run(cmd.arg(fixtures()).arg(dir.path()), "step_file");
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+fn step_file(how: How) {
+    run_c(
+        "step_file",
+        how,
+        |d| vec![fixtures().into(), d.into()],
+        PASSED,
+    );
 }
 
 #[test]
 fn step_file_meshes_a_fixture_and_refuses_bad_files() {
-    step_file(false);
+    step_file(How::Native);
 }
 
 #[test]
 fn step_file_under_valgrind() {
-    step_file(true);
+    step_file(How::Valgrind);
 }
 
 /// dim 3 on a box (planar faces) and a ball (a callback sphere with a
-/// contains callback).
+/// contains callback). d = 0.2 is already the coarsest the unit sphere
+/// allows (about a fifth of the radius), so valgrind runs the native case.
 #[test]
 fn volumes_through_callbacks() {
-    if !have("cc", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("volume", dir.path(), false);
-    let stdout = run(&mut Command::new(&exe), "volume");
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+    run_c("volume", How::Native, |_| vec![], PASSED);
 }
 
 #[test]
 fn volumes_under_valgrind() {
-    if !have("cc", "--version") || !have("valgrind", "--version") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("volume", dir.path(), false);
-    // d = 0.2 is already the coarsest the unit sphere allows (about a fifth
-    // of the radius), so valgrind runs the native case
-    let stdout = run(&mut valgrind(&exe), "valgrind volume");
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+    run_c("volume", How::Valgrind, |_| vec![], PASSED);
 }
 
 /// Spacing plugins: the curvature plugin on a callback torus, and plugins
-/// that cannot be used.
-fn plugin_spacing(under_valgrind: bool) {
-    if !have("cc", "--version") || (under_valgrind && !have("valgrind", "--version")) {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let exe = compile("plugin_spacing", dir.path(), false);
-    let mut cmd = if under_valgrind {
-        valgrind(&exe)
-    } else {
-        Command::new(&exe)
-    };
-    cmd.arg(plugin_lib("bubblemesh_plugin_curvature"))
-        .arg(plugin_lib("bubblemesh_plugin_testbad"))
-        .arg(dir.path());
-    if under_valgrind {
-        // coarser under valgrind (same checks)
-        cmd.arg("0.04");
-    }
-    let stdout = run(&mut cmd, "plugin_spacing");
-    assert!(stdout.contains("all checks passed"), "{stdout}");
+/// that cannot be used; coarser under valgrind (same checks).
+fn plugin_spacing(how: How) {
+    run_c(
+        "plugin_spacing",
+        how,
+        |d| {
+            let mut a = vec![
+                plugin_lib("bubblemesh_plugin_curvature").into(),
+                plugin_lib("bubblemesh_plugin_testbad").into(),
+                d.into(),
+            ];
+            if how == How::Valgrind {
+                a.push("0.04".into());
+            }
+            a
+        },
+        PASSED,
+    );
 }
 
 #[test]
 fn plugin_spacing_loads_the_curvature_plugin_and_refuses_bad_ones() {
-    plugin_spacing(false);
+    plugin_spacing(How::Native);
 }
 
 #[test]
 fn plugin_spacing_under_valgrind() {
-    plugin_spacing(true);
+    plugin_spacing(How::Valgrind);
+}
+
+/// Runs a Python ctypes example against the library; it must print
+/// "checks passed" and write `out_name`, which is read back.
+fn python_example(script: &str, out_name: &str) -> Option<bubblemesh_core::Mesh> {
+    if !have("python3", "--version") {
+        return None;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join(out_name);
+    let stdout = run(
+        Command::new("python3")
+            .arg(manifest_dir().join("examples/python").join(script))
+            .arg("--lib")
+            .arg(lib_dir().join(so_name()))
+            .arg("-o")
+            .arg(&out),
+        script,
+    );
+    assert!(stdout.contains("checks passed"), "{stdout}");
+    Some(bubblemesh_io::read(&out).unwrap())
+}
+
+#[test]
+fn python_ctypes_example() {
+    if let Some(mesh) = python_example("mesh_plate.py", "plate.vtu") {
+        assert!(mesh.triangles.len() > 50);
+    }
 }
 
 /// The Python example meshing a CadQuery-exported part through
@@ -317,22 +331,7 @@ fn plugin_spacing_under_valgrind() {
 /// within 1 %.
 #[test]
 fn python_step_example() {
-    if !have("python3", "--version") {
-        return;
+    if let Some(mesh) = python_example("mesh_step.py", "part.msh") {
+        assert!(mesh.triangles.len() > 500);
     }
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("part.msh");
-    let script = manifest_dir().join("examples/python/mesh_step.py");
-    let stdout = run(
-        Command::new("python3")
-            .arg(&script)
-            .arg("--lib")
-            .arg(lib_dir().join(so_name()))
-            .arg("-o")
-            .arg(&out),
-        "mesh_step.py",
-    );
-    assert!(stdout.contains("checks passed"), "{stdout}");
-    let mesh = bubblemesh_io::read(&out).unwrap();
-    assert!(mesh.triangles.len() > 500);
 }

@@ -226,6 +226,27 @@ fn part(name: &str) -> (serde_json::Value, bubblemesh_truck::StepModel) {
     (p, s)
 }
 
+/// The faces (dim 2) of a part at a uniform size.
+fn mesh_faces(s: &bubblemesh_truck::StepModel, size: f64) -> bubblemesh_core::Mesh {
+    let opts = Options {
+        dim: Some(2),
+        ..Default::default()
+    };
+    mesh_model(&s.model, &Constant(size), &opts).unwrap().0
+}
+
+/// A closed, outward surface enclosing the manifest part's CAD volume to
+/// the relative tolerance `tol`.
+fn assert_closed_with_cad_volume(mesh: &bubblemesh_core::Mesh, p: &serde_json::Value, tol: f64) {
+    let (closed, vol) = closed_and_volume(mesh);
+    assert!(closed, "not closed");
+    let cad = p["volume"].as_f64().unwrap();
+    assert!(
+        vol > 0.0 && (vol / cad - 1.0).abs() < tol,
+        "volume {vol} vs CAD {cad}"
+    );
+}
+
 /// Regression: a NURBS sphere (OCCT's NurbsConvert of a ball) has its poles
 /// where a whole boundary row of control points collapses; the NURBS
 /// surface reported no singular points, the engine connected the bubbles
@@ -240,18 +261,8 @@ fn nurbs_surface_collapsed_to_poles_meshes() {
     for q in &poles {
         assert!((q.coords.norm() - 10.0).abs() < 1e-6, "pole {q}");
     }
-    let opts = Options {
-        dim: Some(2),
-        ..Default::default()
-    };
-    let (mesh, _) = mesh_model(&s.model, &Constant(1.5), &opts).unwrap();
-    let (closed, vol) = closed_and_volume(&mesh);
-    assert!(closed, "not closed");
-    let cad = p["volume"].as_f64().unwrap();
-    assert!(
-        vol > 0.0 && (vol / cad - 1.0).abs() < 0.02,
-        "volume {vol} vs CAD {cad}"
-    );
+    let mesh = mesh_faces(&s, 1.5);
+    assert_closed_with_cad_volume(&mesh, &p, 0.02);
 }
 
 /// Regression: a spherical cap from its boundary circle up to the north
@@ -265,11 +276,7 @@ fn nurbs_surface_collapsed_to_poles_meshes() {
 #[test]
 fn cap_from_its_loop_up_to_a_pole_meshes() {
     let (p, s) = part("b3d_dome_sheet");
-    let opts = Options {
-        dim: Some(2),
-        ..Default::default()
-    };
-    let (mesh, _) = mesh_model(&s.model, &Constant(1.5), &opts).unwrap();
+    let mesh = mesh_faces(&s, 1.5);
     let mut area = 0.0;
     for t in &mesh.triangles {
         let [a, b, c] = t.nodes.map(|i| mesh.nodes[i as usize].pos);
@@ -299,16 +306,6 @@ fn cap_from_its_loop_up_to_a_pole_meshes() {
 #[test]
 fn corner_spheres_of_a_filleted_shell_close() {
     let (p, s) = part("b3d_bottle");
-    let opts = Options {
-        dim: Some(2),
-        ..Default::default()
-    };
-    let (mesh, _) = mesh_model(&s.model, &Constant(1.0), &opts).unwrap();
-    let (closed, vol) = closed_and_volume(&mesh);
-    assert!(closed, "not closed");
-    let cad = p["volume"].as_f64().unwrap();
-    assert!(
-        vol > 0.0 && (vol / cad - 1.0).abs() < 0.002,
-        "volume {vol} vs CAD {cad}"
-    );
+    let mesh = mesh_faces(&s, 1.0);
+    assert_closed_with_cad_volume(&mesh, &p, 0.002);
 }
