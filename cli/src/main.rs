@@ -132,8 +132,8 @@ struct MeshArgs {
     max_steps: usize,
     /// Threads for stage 2's force and move computation (the result does
     /// not depend on it). Default: every core; 1 runs single-threaded.
-    #[arg(long, value_name = "N")]
-    threads: Option<usize>,
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    threads: Option<u64>,
     /// Curvature-based spacing (thesis eq. 4.6.1): triangles within EPS of
     /// the geometry (model units). Combines with --size and --view-spacing.
     #[arg(long, value_name = "EPS", allow_hyphen_values = true)]
@@ -460,10 +460,10 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         IntegratorArg::Rk4 => Integrator::Rk4,
     };
     opts.relax.max_steps = a.max_steps.max(1);
-    let threads = a
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .max(1);
+    let threads = a.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |n| n as usize,
+    );
     opts.relax.parallel = threads > 1;
     if threads > 1 {
         // the global pool is built once per process; an error means it was

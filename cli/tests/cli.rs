@@ -282,6 +282,26 @@ fn bad_input_gives_a_clear_error_and_no_output() {
     }
 }
 
+/// `--threads 0` is a usage error naming the option (clap's exit status
+/// 2), not a silent single thread.
+#[test]
+fn zero_threads_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.msh");
+    let sq = example("square.toml");
+    let o = run(&[
+        "mesh",
+        sq.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--threads",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
 /// Curvature- and view-based spacing from the command line, combined with
 /// an expression by minimum and bounded by --d-max.
 #[test]
