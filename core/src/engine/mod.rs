@@ -15,6 +15,7 @@ pub mod constraint;
 pub mod dynamics;
 pub mod force;
 pub mod grid;
+pub mod growth;
 pub mod improve;
 pub mod odt;
 pub mod placement;
@@ -799,7 +800,28 @@ fn mesh_face(
     // fixed bubble or an earlier accepted seed (closer than 0.75 r0); seeds
     // of one uniform lattice cannot crowd each other, so that check is only
     // made for a varying spacing
-    let all: Vec<placement::Seed> = apex.into_iter().chain(seeds).collect();
+    // on curved faces stage 2 starts from one grown crystal (see `growth`);
+    // the quadtree's seeds fill what the growth did not reach. Planar faces
+    // keep the quadtree: its lattice is exact for a uniform spacing, and for
+    // a graded one growth measured no better (cases B, C: q mean 0.981 and
+    // 0.979 grown, 0.982 and 0.978 from the quadtree, q min lower grown)
+    let grown = if !opts.fast && !surface.is_planar() {
+        match growth_start(&seeds, &fixed_pos, lo, hi) {
+            Some(start) => {
+                let obstacles: Vec<(P3, f64)> = fixed_pos
+                    .iter()
+                    .cloned()
+                    .zip(fixed_d.iter().cloned())
+                    .chain(apex.iter().map(|s| (s.pos, s.d)))
+                    .collect();
+                growth::grow(&carrier, start, &obstacles, &mut d_at)?
+            }
+            None => Vec::new(),
+        }
+    } else {
+        Vec::new()
+    };
+    let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
     let accepted = {
         let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
         let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
@@ -1000,4 +1022,36 @@ fn mesh_face(
     }
     timings.connect_s += t3.elapsed().as_secs_f64();
     Ok(fr)
+}
+
+/// Where lattice growth starts on a face: the stage-1 seed farthest from the
+/// boundary bubbles (relative to its spacing), so the crystal meets the
+/// boundary last; on a face without boundary (a closed surface) the seed
+/// nearest the middle of the parameter box. A sample of at most about 512
+/// seeds is examined.
+fn growth_start<'s>(
+    seeds: &'s [placement::Seed],
+    fixed: &[P3],
+    lo: [f64; 2],
+    hi: [f64; 2],
+) -> Option<&'s placement::Seed> {
+    let stride = seeds.len() / 512 + 1;
+    let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    let score = |s: &placement::Seed| -> f64 {
+        if fixed.is_empty() {
+            -((s.params[0] - mid[0]).powi(2) + (s.params[1] - mid[1]).powi(2))
+        } else {
+            fixed
+                .iter()
+                .map(|q| (q - s.pos).norm())
+                .fold(f64::INFINITY, f64::min)
+                / s.d
+        }
+    };
+    seeds
+        .iter()
+        .step_by(stride)
+        .map(|s| (score(s), s))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, s)| s)
 }
