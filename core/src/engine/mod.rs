@@ -806,7 +806,7 @@ fn mesh_face(
     // a graded one growth measured no better (cases B, C: q mean 0.981 and
     // 0.979 grown, 0.982 and 0.978 from the quadtree, q min lower grown)
     let grown = if !opts.fast && !surface.is_planar() {
-        match growth_start(&seeds, &fixed_pos, lo, hi) {
+        match growth_start(&seeds, &fixed_pos, surface, lo, hi) {
             Some(start) => {
                 let obstacles: Vec<(P3, f64)> = fixed_pos
                     .iter()
@@ -1026,32 +1026,43 @@ fn mesh_face(
 
 /// Where lattice growth starts on a face: the stage-1 seed farthest from the
 /// boundary bubbles (relative to its spacing), so the crystal meets the
-/// boundary last; on a face without boundary (a closed surface) the seed
-/// nearest the middle of the parameter box. A sample of at most about 512
-/// seeds is examined.
+/// boundary last. On a face without boundary (a closed surface) the seed
+/// where the surface is flattest (smallest |Gaussian curvature|·d²; ties:
+/// nearest the middle of the parameter box): on case G's torus, starting
+/// on its top circle (K = 0) gave q mean/min 0.991/0.893, on the inner
+/// equator (K < 0) 0.990/0.875, on the outer one 0.992/0.816. A sample of
+/// at most about 512 seeds is examined.
 fn growth_start<'s>(
     seeds: &'s [placement::Seed],
     fixed: &[P3],
+    surface: &dyn crate::geom::Surface,
     lo: [f64; 2],
     hi: [f64; 2],
 ) -> Option<&'s placement::Seed> {
     let stride = seeds.len() / 512 + 1;
     let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-    let score = |s: &placement::Seed| -> f64 {
+    let score = |s: &placement::Seed| -> (f64, f64) {
         if fixed.is_empty() {
-            -((s.params[0] - mid[0]).powi(2) + (s.params[1] - mid[1]).powi(2))
+            let k =
+                crate::curvature::principal_curvatures(&surface.derivs(s.params[0], s.params[1]))
+                    .map(|c| (c.k1 * c.k2).abs() * s.d * s.d)
+                    .unwrap_or(f64::INFINITY);
+            // flatness rounded so that equal curvature ties
+            let flat = -(k * 1e6).round();
+            let off = (s.params[0] - mid[0]).powi(2) + (s.params[1] - mid[1]).powi(2);
+            (flat, -off)
         } else {
-            fixed
+            let r = fixed
                 .iter()
                 .map(|q| (q - s.pos).norm())
-                .fold(f64::INFINITY, f64::min)
-                / s.d
+                .fold(f64::INFINITY, f64::min);
+            (r / s.d, 0.0)
         }
     };
     seeds
         .iter()
         .step_by(stride)
         .map(|s| (score(s), s))
-        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0).then(a.0 .1.total_cmp(&b.0 .1)))
         .map(|(_, s)| s)
 }
