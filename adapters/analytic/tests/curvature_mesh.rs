@@ -78,7 +78,10 @@ fn curvature_spacing_bounds_the_chord_error_with_fewer_triangles() {
         (m, dev)
     };
     let (mut uniform, dev_u) = uniform_at(d_uniform);
-    assert!(dev_u <= 1.1 * eps, "uniform mesh at the smallest spacing deviates {dev_u}");
+    assert!(
+        dev_u <= 1.1 * eps,
+        "uniform mesh at the smallest spacing deviates {dev_u}"
+    );
     for _ in 0..12 {
         let (m, dev_m) = uniform_at(d_uniform * 1.1);
         if dev_m > dev {

@@ -282,16 +282,27 @@ pub fn mesh_model(
     if dim >= 2 {
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
-            let fr = mesh_face(
-                model,
-                fi,
-                spacing,
-                opts,
-                &edge_nodes,
-                &mut mesh,
-                &node_d,
-                &mut report.timings,
-            )
+            let mut face = |grow: bool| {
+                mesh_face(
+                    model,
+                    fi,
+                    spacing,
+                    opts,
+                    &edge_nodes,
+                    &mut mesh,
+                    &node_d,
+                    &mut report.timings,
+                    grow,
+                )
+            };
+            // a grown start that cannot be connected (measured: the dome
+            // sheet's pole cap at size 1.5, "constraint segments cross") is
+            // retried from the quadtree's start; a failed connection leaves
+            // the mesh untouched
+            let fr = match face(true) {
+                Err(MeshError::Connect(_)) if !opts.fast => face(false),
+                r => r,
+            }
             .map_err(|x| x.within(model.describe(e)))?;
             report.faces.push(fr);
         }
@@ -541,6 +552,7 @@ fn mesh_face(
     mesh: &mut Mesh,
     node_d: &[f64],
     timings: &mut Timings,
+    grow: bool,
 ) -> Result<FaceReport, MeshError> {
     let face = &model.faces[fi];
     let fe = EntityRef::new(2, fi as u32);
@@ -805,7 +817,7 @@ fn mesh_face(
     // keep the quadtree: its lattice is exact for a uniform spacing, and for
     // a graded one growth measured no better (cases B, C: q mean 0.981 and
     // 0.979 grown, 0.982 and 0.978 from the quadtree, q min lower grown)
-    let grown = if !opts.fast && !surface.is_planar() {
+    let grown = if grow && !opts.fast && !surface.is_planar() {
         match growth_start(&seeds, &fixed_pos, surface, lo, hi) {
             Some(start) => {
                 let obstacles: Vec<(P3, f64)> = fixed_pos
