@@ -309,3 +309,48 @@ fn corner_spheres_of_a_filleted_shell_close() {
     let mesh = mesh_faces(&s, 1.0);
     assert_closed_with_cad_volume(&mesh, &p, 0.002);
 }
+
+/// Regression: the bottle's walls are one unit thick and at size 1 no free
+/// bubble fits inside them; its planar bottom and shoulder faces are meshed
+/// alike on both sides, so the nodes face each other in triangular prisms
+/// whose side rectangles are cocircular and coplanar to rounding. Delaunay
+/// split some prisms cyclically (Schönhardt's polyhedron) and glued them
+/// with tetrahedra of volume ~1e-17·L³: 77 of them were written and the run
+/// exited 0. Now every such sliver gets Steiner points off its plane
+/// (engine::sliver::steiner_points). The volume must mesh with no flat
+/// tetrahedron, fill the closed boundary exactly and keep the CAD volume.
+#[test]
+fn thin_walled_bottle_meshes_without_flat_tetrahedra() {
+    let (p, s) = part("b3d_bottle");
+    let opts = Options {
+        dim: Some(3),
+        ..Default::default()
+    };
+    let (mesh, report) =
+        mesh_model(&s.model, &Constant(1.0), &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert_closed_with_cad_volume(&mesh, &p, 0.005);
+    let (_, surface) = closed_and_volume(&mesh);
+    let mut total = 0.0;
+    let mut worst = f64::INFINITY;
+    for t in &mesh.tetrahedra {
+        let [a, b, c, d] = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        let v = (b - a).dot(&(c - a).cross(&(d - a))) / 6.0;
+        let l = [b - a, c - a, d - a, c - b, d - b, d - c]
+            .iter()
+            .map(|e| e.norm())
+            .fold(0.0, f64::max);
+        // volume relative to the longest edge's cube: a regular tet has 0.118
+        worst = worst.min(v / l.powi(3));
+        total += v;
+    }
+    assert!(worst > 1e-4, "a flat tetrahedron: volume {worst:e}·L³");
+    assert!(
+        ((total - surface) / surface).abs() < 1e-9,
+        "tets {total} vs surface {surface}"
+    );
+    let steiner: usize = report.volumes.iter().map(|v| v.steiner).sum();
+    assert!(
+        steiner > 0,
+        "the thin walls needed no Steiner point: the test no longer covers them"
+    );
+}

@@ -21,6 +21,12 @@ pub const ROUNDS: usize = 4;
 /// Largest move of a node per smoothing pass, in units of its spacing.
 pub const MAX_MOVE: f64 = 0.35;
 
+/// Rounds of [`steiner_points`] and re-connection after [`improve`].
+pub const STEINER_ROUNDS: usize = 6;
+/// A tetrahedron with a radius ratio below this is flat: the volume is
+/// refused rather than meshed with it.
+pub const FLAT_Q: f64 = 1e-6;
+
 /// What sliver removal did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SliverStats {
@@ -107,6 +113,100 @@ pub fn dihedral_extremes(a: &P3, b: &P3, c: &P3, d: &P3) -> (f64, f64) {
 fn tet_q(pos: &[P3], t: &[u32; 4]) -> f64 {
     let [a, b, c, d] = t.map(|k| pos[k as usize]);
     objective(&a, &b, &c, &d)
+}
+
+/// [`objective`] of tetrahedron `t`.
+pub fn objective_of(pos: &[P3], t: &[u32; 4]) -> f64 {
+    tet_q(pos, t)
+}
+
+/// [`radius_ratio`] of tetrahedron `t`.
+pub fn radius_ratio_of(pos: &[P3], t: &[u32; 4]) -> f64 {
+    let [a, b, c, d] = t.map(|k| pos[k as usize]);
+    radius_ratio(&a, &b, &c, &d)
+}
+
+/// New free points for the slivers that [`improve`] left: for every
+/// tetrahedron still below [`TARGET_Q`], the two points 0.29·d off its
+/// centroid along the normal of its mean plane (d: the mean spacing of its
+/// corners), those that `inside` accepts, skipping one within a quarter
+/// spacing of a point already chosen.
+///
+/// Why: a sliver whose four corners are all boundary nodes cannot be
+/// smoothed away. It happens in a wall about one spacing thick, where no
+/// free bubble fits and the two sides' surface meshes face each other;
+/// where their lattices are translates of each other (two planar faces
+/// meshed alike), the nodes form triangular prisms across the wall whose
+/// side rectangles are cocircular and, to rounding, coplanar. Delaunay
+/// then splits each rectangle by whichever diagonal the rounding favours;
+/// a prism whose three diagonals turn cyclically is Schönhardt's
+/// polyhedron, which has no tetrahedralization, and a tetrahedron of volume
+/// ~1e-17·L³ on a rectangle glues the two sides together (seen on
+/// fixtures/step/b3d_bottle.step at size 1: 77 of them, no flip removes
+/// them). A point inside the prism on either side of the rectangle (its
+/// centre is a/(2√3) ≈ 0.29·a off a side of length a) lets the prism be
+/// split; the caller re-connects and runs [`improve`] again, which can move
+/// the new points.
+pub fn steiner_points(
+    pos: &[P3],
+    slivers: &[[u32; 4]],
+    d: &[f64],
+    inside: impl Fn(&P3) -> bool,
+) -> Vec<(P3, f64)> {
+    let mut cand: Vec<(P3, f64)> = Vec::new();
+    for t in slivers {
+        let p = t.map(|k| pos[k as usize]);
+        let c = P3::from((p[0].coords + p[1].coords + p[2].coords + p[3].coords) / 4.0);
+        let dc = t.iter().map(|&k| d[k as usize]).sum::<f64>() / 4.0;
+        // the normal of the mean plane: the largest cross product of two
+        // opposite edges (for a flat quadrilateral, its diagonals')
+        let n = [(0, 1, 2, 3), (0, 2, 1, 3), (0, 3, 1, 2)]
+            .iter()
+            .map(|&(a, b, e, f)| (p[b] - p[a]).cross(&(p[f] - p[e])))
+            .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))
+            .unwrap_or_else(V3::zeros);
+        let nn = n.norm();
+        if !(nn > 0.0) {
+            continue;
+        }
+        for s in [1.0, -1.0] {
+            let q = c + n * (s * 0.29 * dc / nn);
+            if inside(&q) {
+                cand.push((q, dc));
+            }
+        }
+    }
+    let Some(h) = cand.iter().map(|c| 0.25 * c.1).min_by(f64::total_cmp) else {
+        return Vec::new();
+    };
+    // a hash grid of cell h (the smallest exclusion radius): a point is
+    // dropped when a chosen one lies within a quarter of its own spacing
+    let key = |p: &P3| [0, 1, 2].map(|i| (p[i] / h).floor() as i64);
+    let mut cells: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
+    let mut out: Vec<(P3, f64)> = Vec::new();
+    for (c, dc) in cand {
+        let r = 0.25 * dc;
+        let reach = (r / h).ceil() as i64;
+        let k = key(&c);
+        let mut near = false;
+        'search: for dx in -reach..=reach {
+            for dy in -reach..=reach {
+                for dz in -reach..=reach {
+                    if let Some(v) = cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
+                        if v.iter().any(|&j| (out[j].0 - c).norm() < r) {
+                            near = true;
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        if !near {
+            cells.entry(k).or_default().push(out.len());
+            out.push((c, dc));
+        }
+    }
+    out
 }
 
 fn positive(pos: &[P3], t: &[u32; 4]) -> bool {
@@ -553,5 +653,33 @@ mod tests {
             P3::new(0.0, 1.0, 0.01),
         ];
         assert!(radius_ratio(&s[0], &s[1], &s[2], &s[3]).abs() < 0.05);
+    }
+
+    /// A rectangle across a wall, coplanar to rounding (the b3d_bottle
+    /// case): one Steiner point on each side of it, 0.29·d off its centre,
+    /// both dropped where `inside` refuses them, and a second sliver at the
+    /// same place adds nothing.
+    #[test]
+    fn steiner_points_straddle_a_flat_rectangle() {
+        let pos = vec![
+            P3::new(0.0, 0.0, 0.0),
+            P3::new(1.0, 1e-17, 0.0),
+            P3::new(1.0, 0.0, 1.0),
+            P3::new(0.0, 1e-17, 1.0),
+        ];
+        let d = vec![1.0; 4];
+        let t = [0, 1, 2, 3];
+        assert!(radius_ratio_of(&pos, &t).abs() < FLAT_Q);
+        let pts = steiner_points(&pos, &[t, [1, 2, 3, 0]], &d, |_| true);
+        assert_eq!(pts.len(), 2, "{pts:?}");
+        for (p, dp) in &pts {
+            assert_eq!(*dp, 1.0);
+            assert!((p.x - 0.5).abs() < 1e-12 && (p.z - 0.5).abs() < 1e-12);
+            assert!((p.y.abs() - 0.29).abs() < 1e-12, "{p:?}");
+        }
+        assert!(pts[0].0.y * pts[1].0.y < 0.0);
+        let one_side = steiner_points(&pos, &[t], &d, |p| p.y > 0.0);
+        assert_eq!(one_side.len(), 1);
+        assert!(one_side[0].0.y > 0.0);
     }
 }

@@ -246,6 +246,9 @@ pub struct VolumeReport {
     pub sliver_s: f64,
     /// Sliver-removal statistics.
     pub slivers: super::sliver::SliverStats,
+    /// Steiner points added inside slivers that smoothing and flips could
+    /// not remove ([`super::sliver::steiner_points`]).
+    pub steiner: usize,
     pub relax: Option<super::system::RelaxStats>,
 }
 
@@ -401,15 +404,91 @@ pub(super) fn mesh_volume(
     rep.recovery_removed = conn.removed;
     let mut tets = conn.tets;
     let mut pos = sys.pos.clone();
+    let mut d = sys.d.clone();
     let mut movable: Vec<bool> = (0..pos.len())
         .map(|i| i >= n_fixed && conn.kept[i])
         .collect();
     rep.delaunay_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     if !opts.fast {
-        rep.slivers = super::sliver::improve(&mut pos, &mut movable, &mut tets, &sys.d);
+        // the Delaunay tetrahedralization's flat tetrahedra among boundary
+        // nodes: flips remove most, but which ones they leave depends on the
+        // order they meet them, so every one gets its Steiner points now
+        // (see sliver::steiner_points)
+        let locked = |t: &[u32; 4], movable: &[bool]| t.iter().all(|&k| !movable[k as usize]);
+        let mut work: Vec<[u32; 4]> = tets
+            .iter()
+            .filter(|t| {
+                locked(t, &movable)
+                    && super::sliver::radius_ratio_of(&pos, t) < super::sliver::FLAT_Q
+            })
+            .cloned()
+            .collect();
+        rep.slivers = super::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
+        for _ in 0..super::sliver::STEINER_ROUNDS {
+            // and those that improve() left
+            work.extend(tets.iter().filter(|t| {
+                locked(t, &movable)
+                    && super::sliver::objective_of(&pos, t) < super::sliver::TARGET_Q
+            }));
+            let extra =
+                super::sliver::steiner_points(&pos, &work, &d, |p| sys.carrier.contains_point(p));
+            work.clear();
+            if extra.is_empty() {
+                break;
+            }
+            rep.steiner += extra.len();
+            // the kept nodes, then the new ones; fixed nodes keep their
+            // indices (the boundary triangles refer to them)
+            let mut pos2: Vec<P3> = Vec::with_capacity(pos.len() + extra.len());
+            let mut d2: Vec<f64> = Vec::with_capacity(pos.len() + extra.len());
+            for i in 0..pos.len() {
+                if i < n_fixed || movable[i] {
+                    pos2.push(pos[i]);
+                    d2.push(d[i]);
+                }
+            }
+            for (p, dp) in extra {
+                pos2.push(p);
+                d2.push(dp);
+            }
+            let conn = crate::connect3d::connect_volume(&pos2, n_fixed, &local_tris)
+                .map_err(|e| MeshError::Invalid(e.to_string()))?;
+            rep.recovery_removed += conn.removed;
+            movable = (0..pos2.len())
+                .map(|i| i >= n_fixed && conn.kept[i])
+                .collect();
+            tets = conn.tets;
+            pos = pos2;
+            d = d2;
+            let s = super::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
+            rep.slivers.moves += s.moves;
+            rep.slivers.flips += s.flips;
+            rep.slivers.bad_after = s.bad_after;
+            rep.slivers.min_q_after = s.min_q_after;
+        }
     }
     rep.sliver_s = t.elapsed().as_secs_f64();
+    // never hand out a flat tetrahedron (a solver divides by its volume):
+    // refuse the volume instead, naming where
+    if let Some(t) = tets
+        .iter()
+        .find(|t| super::sliver::radius_ratio_of(&pos, t) < super::sliver::FLAT_Q)
+    {
+        let c = t
+            .iter()
+            .fold(V3::zeros(), |a, &k| a + pos[k as usize].coords)
+            / 4.0;
+        return Err(MeshError::Invalid(format!(
+            "a tetrahedron near ({:.6}, {:.6}, {:.6}) stays flat (radius ratio below {:e}) after \
+             sliver removal and {} Steiner point(s); try a smaller size there",
+            c.x,
+            c.y,
+            c.z,
+            super::sliver::FLAT_Q,
+            rep.steiner
+        )));
+    }
     let mut referenced = vec![false; pos.len()];
     for t in &tets {
         for &v in t {
@@ -428,6 +507,7 @@ pub(super) fn mesh_volume(
         }
     }
     rep.bubbles = (n_fixed..pos.len()).filter(|&i| referenced[i]).count();
+    let _ = &d;
     for t in &tets {
         mesh.tetrahedra.push(crate::mesh::Element {
             nodes: t.map(|l| {
