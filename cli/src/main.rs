@@ -465,13 +465,12 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         |n| n as usize,
     );
     opts.relax.parallel = threads > 1;
-    if threads > 1 {
-        // the global pool is built once per process; an error means it was
-        // already built, which leaves the work parallel anyway
-        let _ = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_global();
-    }
+    // every rayon loop (relaxation, volume polish) runs on this pool, so
+    // `--threads 1` is single-threaded throughout; the global pool is built
+    // once per process, and an error means it was already built
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build_global();
     let bar = progress_bar(a.quiet, &model);
     if let Some(bar) = &bar {
         let b = bar.clone();

@@ -19,6 +19,7 @@ pub mod growth;
 pub mod improve;
 pub mod odt;
 pub mod placement;
+pub mod polish;
 pub mod population;
 pub mod region;
 pub mod shell;

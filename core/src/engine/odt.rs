@@ -19,7 +19,7 @@ use crate::geom::P3;
 use super::volume::InVolume;
 
 /// ODT iterations.
-pub const ITERATIONS: usize = 12;
+pub const ITERATIONS: usize = 20;
 /// Largest move of a node per iteration, in units of its spacing.
 pub const MAX_STEP: f64 = 0.25;
 

@@ -246,6 +246,10 @@ pub struct VolumeReport {
     pub sliver_s: f64,
     /// Sliver-removal statistics.
     pub slivers: super::sliver::SliverStats,
+    /// Free nodes moved by the mean-quality smoothing ([`super::polish`])
+    /// and its seconds.
+    pub polish_moves: usize,
+    pub polish_s: f64,
     /// Steiner points added inside slivers that smoothing and flips could
     /// not remove ([`super::sliver::steiner_points`]).
     pub steiner: usize,
@@ -469,6 +473,12 @@ pub(super) fn mesh_volume(
         }
     }
     rep.sliver_s = t.elapsed().as_secs_f64();
+    if !opts.fast {
+        let t = Instant::now();
+        rep.polish_moves =
+            super::polish::smooth(&mut pos, &movable, &tets, &d, super::polish::PASSES);
+        rep.polish_s = t.elapsed().as_secs_f64();
+    }
     // never hand out a flat tetrahedron (a solver divides by its volume):
     // refuse the volume instead, naming where
     if let Some(t) = tets

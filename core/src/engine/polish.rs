@@ -1,0 +1,254 @@
+//! Mean-quality smoothing of a volume's free nodes, the last step of the
+//! volume connection (not in the thesis).
+//!
+//! Why: after stage 2, ODT smoothing ([`super::odt`]) and sliver removal
+//! ([`super::sliver`]) the worst tetrahedra are fixed, but a graded packing
+//! still leaves many middling ones: on case I (d = 0.02 + 0.1·x) the mean
+//! radius ratio was 0.865, interior tetrahedra 0.876 against 0.909 for the
+//! uniform case H. Moving every free node to raise the *sum* of the radius
+//! ratios of its star (a pattern search, as the sliver pass does for the
+//! worst one) lifted I to 0.883 in one pass; more passes gained little
+//! (0.885 after three).
+//!
+//! Invariants kept: every tetrahedron of a moved node's star stays
+//! positively oriented (exact `orient3d`), so no node leaves its volume and
+//! the topology — hence the boundary — is unchanged; the worst
+//! [`super::sliver::objective`] of a star never drops below the smaller of
+//! its value before and [`super::sliver::TARGET_Q`], so the sliver pass's
+//! guarantees (radius ratio and dihedral angles) survive.
+//!
+//! Parallel: nodes are greedily coloured so that no two nodes of one colour
+//! share a tetrahedron; the nodes of a colour move at once (rayon), each
+//! reading only positions that colour does not change. The result does
+//! not depend on the number of threads.
+
+use rayon::prelude::*;
+
+use crate::geom::{P3, V3};
+
+use super::sliver::{objective, radius_ratio, TARGET_Q};
+
+/// Passes over all free nodes.
+pub const PASSES: usize = 1;
+/// First step of the pattern search, and the step below which it stops,
+/// in units of the node's spacing.
+const FIRST_STEP: f64 = 0.05;
+const LAST_STEP: f64 = 0.01;
+
+/// Moves the free nodes (`movable`) of the tetrahedra `tets` to raise the
+/// sum of radius ratios of their stars; `d` is the spacing per node.
+/// Returns the number of nodes moved.
+pub fn smooth(
+    pos: &mut [P3],
+    movable: &[bool],
+    tets: &[[u32; 4]],
+    d: &[f64],
+    passes: usize,
+) -> usize {
+    let n = pos.len();
+    // node -> tetrahedra (CSR)
+    let mut start = vec![0usize; n + 1];
+    for t in tets {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; start[n]];
+    for (ti, t) in tets.iter().enumerate() {
+        for &v in t {
+            inc[fill[v as usize]] = ti as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    let star = |v: usize| &inc[start[v]..start[v + 1]];
+    let classes = colour(n, movable, tets, &star);
+    let dirs = directions();
+    let mut moved = 0;
+    for _ in 0..passes {
+        for class in &classes {
+            let snapshot: &[P3] = pos;
+            let moves: Vec<(usize, P3)> = class
+                .par_iter()
+                .filter_map(|&v| {
+                    let p = search(snapshot, tets, star(v), v, d[v], &dirs);
+                    (p != snapshot[v]).then_some((v, p))
+                })
+                .collect();
+            moved += moves.len();
+            for (v, p) in moves {
+                pos[v] = p;
+            }
+        }
+    }
+    moved
+}
+
+/// Greedy colouring of the free nodes: two nodes of a tetrahedron never
+/// share a colour. Returns the nodes of each colour.
+fn colour<'a>(
+    n: usize,
+    movable: &[bool],
+    tets: &[[u32; 4]],
+    star: &impl Fn(usize) -> &'a [u32],
+) -> Vec<Vec<usize>> {
+    let mut col = vec![u32::MAX; n];
+    let mut classes: Vec<Vec<usize>> = Vec::new();
+    let mut used: Vec<u32> = Vec::new();
+    for v in (0..n).filter(|&v| movable[v]) {
+        used.clear();
+        for &t in star(v) {
+            for &w in &tets[t as usize] {
+                let c = col[w as usize];
+                if c != u32::MAX {
+                    used.push(c);
+                }
+            }
+        }
+        let c = (0u32..).find(|c| !used.contains(c)).unwrap_or(0);
+        col[v] = c;
+        if classes.len() <= c as usize {
+            classes.resize_with(c as usize + 1, Vec::new);
+        }
+        classes[c as usize].push(v);
+    }
+    classes
+}
+
+/// The 6 axis and 8 diagonal unit directions.
+fn directions() -> Vec<V3> {
+    let mut v = Vec::new();
+    for x in -1i32..=1 {
+        for y in -1i32..=1 {
+            for z in -1i32..=1 {
+                let k = (x != 0) as u8 + (y != 0) as u8 + (z != 0) as u8;
+                if k == 1 || k == 3 {
+                    v.push(V3::new(x as f64, y as f64, z as f64).normalize());
+                }
+            }
+        }
+    }
+    v
+}
+
+/// Pattern search for node `v`'s position: the best found, or its own.
+fn search(pos: &[P3], tets: &[[u32; 4]], star: &[u32], v: usize, d: f64, dirs: &[V3]) -> P3 {
+    let corners = |t: u32, at: &P3| {
+        tets[t as usize].map(|k| {
+            if k as usize == v {
+                *at
+            } else {
+                pos[k as usize]
+            }
+        })
+    };
+    let sum = |at: &P3| -> f64 {
+        star.iter()
+            .map(|&t| {
+                let [a, b, c, e] = corners(t, at);
+                radius_ratio(&a, &b, &c, &e)
+            })
+            .sum()
+    };
+    let worst = |at: &P3| -> f64 {
+        star.iter()
+            .map(|&t| {
+                let [a, b, c, e] = corners(t, at);
+                objective(&a, &b, &c, &e)
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let positive = |at: &P3| {
+        star.iter().all(|&t| {
+            let [a, b, c, e] = corners(t, at).map(|p| crate::connect3d::c3(&p));
+            robust::orient3d(a, b, c, e) < 0.0
+        })
+    };
+    let mut at = pos[v];
+    let floor = worst(&at).min(TARGET_Q);
+    let mut best = sum(&at);
+    let mut step = FIRST_STEP * d;
+    while step > LAST_STEP * d {
+        let mut improved = false;
+        for dir in dirs {
+            let cand = at + dir * step;
+            let s = sum(&cand);
+            if s > best + 1e-9 && worst(&cand) >= floor && positive(&cand) {
+                best = s;
+                at = cand;
+                improved = true;
+            }
+        }
+        if !improved {
+            step *= 0.5;
+        }
+    }
+    at
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A jittered cubic lattice: the pass must raise the mean radius
+    /// ratio, move only free nodes, keep every tetrahedron positive and the
+    /// worst objective no lower than before (it is below TARGET_Q here).
+    #[test]
+    fn polish_raises_the_mean_and_keeps_tets_valid() {
+        let k = 7;
+        let mut pos = Vec::new();
+        let mut movable = Vec::new();
+        let mut state = 0x1234_5678_u64;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        for i in 0..k {
+            for j in 0..k {
+                for l in 0..k {
+                    let inner = [i, j, l].iter().all(|&c| c > 0 && c < k - 1);
+                    let jit = if inner { 0.3 } else { 0.0 };
+                    pos.push(P3::new(
+                        i as f64 + jit * rnd(),
+                        j as f64 + jit * rnd(),
+                        l as f64 + jit * rnd(),
+                    ));
+                    movable.push(inner);
+                }
+            }
+        }
+        let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let tets = bubblemesh_delaunay::tetrahedralize(&coords).unwrap().tets;
+        let d = vec![1.0; pos.len()];
+        let q = |pos: &[P3], t: &[u32; 4]| {
+            let [a, b, c, e] = t.map(|k| pos[k as usize]);
+            (radius_ratio(&a, &b, &c, &e), objective(&a, &b, &c, &e))
+        };
+        let mean = |pos: &[P3]| tets.iter().map(|t| q(pos, t).0).sum::<f64>() / tets.len() as f64;
+        let worst = |pos: &[P3]| {
+            tets.iter()
+                .map(|t| q(pos, t).1)
+                .fold(f64::INFINITY, f64::min)
+        };
+        let (m0, w0) = (mean(&pos), worst(&pos));
+        assert!(w0 < TARGET_Q);
+        let before = pos.clone();
+        let moved = smooth(&mut pos, &movable, &tets, &d, 1);
+        let (m1, w1) = (mean(&pos), worst(&pos));
+        assert!(moved > 0);
+        assert!(m1 > m0 + 0.01, "mean {m0} -> {m1}");
+        assert!(w1 >= w0, "worst {w0} -> {w1}");
+        for (i, (p, b)) in pos.iter().zip(&before).enumerate() {
+            assert!(movable[i] || p == b, "fixed node {i} moved");
+        }
+        for t in &tets {
+            let [a, b, c, e] = t.map(|k| crate::connect3d::c3(&pos[k as usize]));
+            assert!(robust::orient3d(a, b, c, e) < 0.0, "tet {t:?} not positive");
+        }
+    }
+}
