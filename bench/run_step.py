@@ -116,17 +116,17 @@ def check(path, size, part):
     return json.loads(r.stdout)
 
 
-def run_bubblemesh(step, out, size, timeout, dim=2, extra=()):
+def run_bubblemesh(step, out, size, timeout):
     t = time.perf_counter()
-    r = subprocess.run([BM, "mesh", step, "-o", out, "--size", str(size), "--dim", str(dim), "--quiet",
-                        "--threads", "1", *extra], capture_output=True, text=True, timeout=timeout)
+    r = subprocess.run([BM, "mesh", step, "-o", out, "--size", str(size), "--dim", "2", "--quiet", "--threads", "1"],
+                       capture_output=True, text=True, timeout=timeout)
     dt = time.perf_counter() - t
     if r.returncode != 0:
         return dt, (r.stderr.strip().splitlines() or ["failed"])[-1]
     return dt, None
 
 
-def run_gmsh(step, out, size, timeout, dim=2):
+def run_gmsh(step, out, size, timeout):
     code = f"""
 import gmsh, time, sys
 gmsh.initialize(); gmsh.option.setNumber('General.Terminal', 0)
@@ -134,7 +134,7 @@ gmsh.model.occ.importShapes({step!r}); gmsh.model.occ.synchronize()
 gmsh.option.setNumber('Mesh.MeshSizeMin', {size}); gmsh.option.setNumber('Mesh.MeshSizeMax', {size})
 gmsh.option.setNumber('Mesh.MeshSizeFromPoints', 0); gmsh.option.setNumber('Mesh.MeshSizeFromCurvature', 0)
 gmsh.option.setNumber('Mesh.MeshSizeExtendFromBoundary', 0)
-t = time.perf_counter(); gmsh.model.mesh.generate({dim}); dt = time.perf_counter() - t
+t = time.perf_counter(); gmsh.model.mesh.generate(2); dt = time.perf_counter() - t
 gmsh.option.setNumber('Mesh.Binary', 1); gmsh.write({out!r}); print(dt)
 """
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout)

@@ -20,7 +20,7 @@ core/src/engine/sliver.rs, `steiner_points`).
 import argparse, json, os, subprocess, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import run_step  # noqa: E402  (the 2D script: binary path, mesher runners)
+import run_step  # noqa: E402  (the surface script: paths of the binary and meshcheck)
 
 OUT = os.path.join(run_step.ROOT, "bench", "out", "step3d")
 
@@ -34,23 +34,26 @@ def check(path, size, part):
     return json.loads(r.stdout)
 
 
+def timed(cmd, timeout):
+    """(wall seconds, None) or (seconds, the last line of stderr) for a failed run."""
+    import time
+    t = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    dt = time.perf_counter() - t
+    if r.returncode != 0:
+        return dt, (r.stderr.strip().splitlines() or [f"exit {r.returncode}"])[-1]
+    return dt, None
+
+
 def run_bm(mem_mb):
     def go(step, out, size, timeout):
-        import time
-        t = time.perf_counter()
-        r = subprocess.run(["prlimit", f"--as={mem_mb << 20}", "--", run_step.BM, "mesh", step, "-o", out,
-                            "--size", str(size), "--dim", "3", "--quiet", "--threads", "1"],
-                           capture_output=True, text=True, timeout=timeout)
-        dt = time.perf_counter() - t
-        if r.returncode != 0:
-            return dt, (r.stderr.strip().splitlines() or [f"exit {r.returncode}"])[-1]
-        return dt, None
+        return timed(["prlimit", f"--as={mem_mb << 20}", "--", run_step.BM, "mesh", step, "-o", out,
+                      "--size", str(size), "--dim", "3", "--quiet", "--threads", "1"], timeout)
     return go
 
 
 def run_gmsh(mem_mb):
     def go(step, out, size, timeout):
-        import time
         code = f"""
 import gmsh
 gmsh.initialize(); gmsh.option.setNumber('General.Terminal', 0)
@@ -58,16 +61,11 @@ gmsh.model.occ.importShapes({step!r}); gmsh.model.occ.synchronize()
 gmsh.option.setNumber('Mesh.MeshSizeMin', {size}); gmsh.option.setNumber('Mesh.MeshSizeMax', {size})
 gmsh.option.setNumber('Mesh.MeshSizeFromPoints', 0); gmsh.option.setNumber('Mesh.MeshSizeFromCurvature', 0)
 gmsh.option.setNumber('Mesh.MeshSizeExtendFromBoundary', 0)
+gmsh.option.setNumber('General.NumThreads', 1)
 gmsh.model.mesh.generate(3)
 gmsh.option.setNumber('Mesh.Binary', 1); gmsh.write({out!r})
 """
-        t = time.perf_counter()
-        r = subprocess.run(["prlimit", f"--as={mem_mb << 20}", "--", sys.executable, "-c", code],
-                           capture_output=True, text=True, timeout=timeout)
-        dt = time.perf_counter() - t
-        if r.returncode != 0:
-            return dt, (r.stderr.strip().splitlines() or [f"exit {r.returncode}"])[-1]
-        return dt, None
+        return timed(["prlimit", f"--as={mem_mb << 20}", "--", sys.executable, "-c", code], timeout)
     return go
 
 
