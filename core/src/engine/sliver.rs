@@ -126,8 +126,9 @@ pub fn radius_ratio_of(pos: &[P3], t: &[u32; 4]) -> f64 {
     radius_ratio(&a, &b, &c, &d)
 }
 
-/// New free points for the slivers that [`improve`] left: for every
-/// tetrahedron still below [`TARGET_Q`], the two points 0.29·d off its
+/// New free points for `slivers` (the caller passes those whose corners are
+/// all fixed: flat in the raw tetrahedralization, or still below
+/// [`TARGET_Q`] after [`improve`]): for each, the two points 0.29·d off its
 /// centroid along the normal of its mean plane (d: the mean spacing of its
 /// corners), those that `inside` accepts, skipping one within a quarter
 /// spacing of a point already chosen.

@@ -517,7 +517,6 @@ pub(super) fn mesh_volume(
         }
     }
     rep.bubbles = (n_fixed..pos.len()).filter(|&i| referenced[i]).count();
-    let _ = &d;
     for t in &tets {
         mesh.tetrahedra.push(crate::mesh::Element {
             nodes: t.map(|l| {
