@@ -13,6 +13,7 @@
 
 pub mod constraint;
 pub mod dynamics;
+pub mod flip;
 pub mod force;
 pub mod grid;
 pub mod growth;

@@ -246,9 +246,10 @@ pub struct VolumeReport {
     pub sliver_s: f64,
     /// Sliver-removal statistics.
     pub slivers: super::sliver::SliverStats,
-    /// Free nodes moved by the mean-quality smoothing ([`super::polish`])
-    /// and its seconds.
+    /// Node moves and flips of the mean-quality step
+    /// ([`super::polish::polish`]), and its seconds.
     pub polish_moves: usize,
+    pub polish_flips: usize,
     pub polish_s: f64,
     /// Steiner points added inside slivers that smoothing and flips could
     /// not remove ([`super::sliver::steiner_points`]).
@@ -475,8 +476,9 @@ pub(super) fn mesh_volume(
     rep.sliver_s = t.elapsed().as_secs_f64();
     if !opts.fast {
         let t = Instant::now();
-        rep.polish_moves =
-            super::polish::smooth(&mut pos, &movable, &tets, &d, super::polish::PASSES);
+        let stats = super::polish::polish(&mut pos, &movable, &mut tets, &d);
+        rep.polish_moves = stats.moves;
+        rep.polish_flips = stats.flips;
         rep.polish_s = t.elapsed().as_secs_f64();
     }
     // never hand out a flat tetrahedron (a solver divides by its volume):

@@ -1,0 +1,443 @@
+//! Topological improvement of a tetrahedral mesh: edge removal (3-2, 4-4,
+//! 5-6, … flips, the best re-triangulation of an edge's ring by Klincsek's
+//! dynamic programme) and 2-3 flips (not in the thesis; Freitag &
+//! Ollivier-Gooch 1997, Shewchuk 2002 "Two discrete optimization
+//! algorithms for the topological improvement of tetrahedral meshes").
+//!
+//! Two goals: [`raise_worst`] for the sliver pass (a flip must raise the
+//! worst [`objective`](super::sliver::objective) of the tetrahedra it
+//! replaces) and [`raise_mean`] for the polish (a flip must raise the
+//! mesh's mean radius ratio without a new tetrahedron below
+//! [`TARGET_Q`]). Invariants: every new tetrahedron is positively oriented
+//! (exact `orient3d`), boundary faces are never flipped (a boundary face has
+//! one tetrahedron and a boundary edge an open ring), nodes never move.
+
+use crate::geom::{P3, V3};
+
+use super::sliver::{objective_of as tet_q, radius_ratio_of, FACE3, TARGET_Q};
+
+/// A tetrahedral mesh being improved: tets with a dead flag and, per node,
+/// the live tets around it.
+struct TetMesh<'a> {
+    pos: &'a [P3],
+    tets: Vec<[u32; 4]>,
+    dead: Vec<bool>,
+    inc: Vec<Vec<u32>>,
+}
+
+impl<'a> TetMesh<'a> {
+    fn new(pos: &'a [P3], tets: &[[u32; 4]]) -> Self {
+        let mut inc = vec![Vec::new(); pos.len()];
+        for (ti, t) in tets.iter().enumerate() {
+            for &v in t {
+                inc[v as usize].push(ti as u32);
+            }
+        }
+        TetMesh {
+            pos,
+            tets: tets.to_vec(),
+            dead: vec![false; tets.len()],
+            inc,
+        }
+    }
+
+    fn q(&self, t: &[u32; 4]) -> f64 {
+        tet_q(self.pos, t)
+    }
+
+    fn remove(&mut self, ti: u32) {
+        self.dead[ti as usize] = true;
+        for &v in &self.tets[ti as usize] {
+            self.inc[v as usize].retain(|&x| x != ti);
+        }
+    }
+
+    fn add(&mut self, t: [u32; 4]) {
+        let ti = self.tets.len() as u32;
+        self.tets.push(t);
+        self.dead.push(false);
+        for &v in &t {
+            self.inc[v as usize].push(ti);
+        }
+    }
+
+    /// Live tets containing every node of `vs`.
+    fn around(&self, vs: &[u32]) -> Vec<u32> {
+        let first = &self.inc[vs[0] as usize];
+        first
+            .iter()
+            .cloned()
+            .filter(|&t| vs[1..].iter().all(|v| self.tets[t as usize].contains(v)))
+            .collect()
+    }
+
+    /// Sign of det(b−a, c−a, d−a) (exact).
+    fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> f64 {
+        let [a, b, c, d] = [a, b, c, d].map(|k| crate::connect3d::c3(&self.pos[k as usize]));
+        -robust::orient3d(a, b, c, d)
+    }
+
+    /// Removes the interior edge (d, e) if a re-triangulation of its ring
+    /// (at most 7 tets around it) meets `goal`.
+    fn try_edge_removal(&mut self, d: u32, e: u32, goal: Goal) -> bool {
+        let ring_tets = self.around(&[d, e]);
+        let m = ring_tets.len();
+        if !(3..=7).contains(&m) {
+            return false;
+        }
+        // ring edges x–y of each tet, chained into a cycle
+        let mut links: Vec<[u32; 2]> = ring_tets
+            .iter()
+            .map(|&t| {
+                let o: Vec<u32> = self.tets[t as usize]
+                    .iter()
+                    .cloned()
+                    .filter(|&v| v != d && v != e)
+                    .collect();
+                [o[0], o[1]]
+            })
+            .collect();
+        let mut ring = vec![links[0][0], links[0][1]];
+        links.swap_remove(0);
+        while !links.is_empty() {
+            let last = *ring.last().unwrap_or(&u32::MAX);
+            let Some(k) = links.iter().position(|l| l[0] == last || l[1] == last) else {
+                return false; // open ring: a boundary edge
+            };
+            let l = links.swap_remove(k);
+            let next = if l[0] == last { l[1] } else { l[0] };
+            if links.is_empty() {
+                if next != ring[0] {
+                    return false;
+                }
+            } else {
+                ring.push(next);
+            }
+        }
+        if ring.len() != m {
+            return false;
+        }
+        // counter-clockwise seen from d: Newell normal towards d
+        let p = |k: u32| self.pos[k as usize];
+        let mut nrm = V3::zeros();
+        for i in 0..m {
+            nrm += p(ring[i]).coords.cross(&p(ring[(i + 1) % m]).coords);
+        }
+        if nrm.dot(&(p(d) - p(e))) < 0.0 {
+            ring.reverse();
+        }
+        let old: Vec<f64> = ring_tets
+            .iter()
+            .map(|&t| goal.value(self.pos, &self.tets[t as usize]))
+            .collect();
+        let old_min = ring_tets
+            .iter()
+            .map(|&t| self.q(&self.tets[t as usize]))
+            .fold(f64::INFINITY, f64::min);
+        // Klincsek's dynamic programme over triangulations of the ring:
+        // best[i][j] = the best value of the polygon ring[i..=j], its worst
+        // radius ratio (Goal::Worst) or its sum (Goal::Mean)
+        let floor = goal.floor(old_min);
+        let tri_q = |i: usize, j: usize, k: usize| -> f64 {
+            let (a, b, c) = (ring[i], ring[j], ring[k]);
+            if self.orient(a, b, c, d) <= 0.0 || self.orient(a, c, b, e) <= 0.0 {
+                return f64::NEG_INFINITY;
+            }
+            let (t1, t2) = ([a, b, c, d], [a, c, b, e]);
+            let worst = self.q(&t1).min(self.q(&t2));
+            match goal {
+                Goal::Worst => worst,
+                Goal::Mean { .. } if worst < floor => f64::NEG_INFINITY,
+                Goal::Mean { .. } => goal.value(self.pos, &t1) + goal.value(self.pos, &t2),
+            }
+        };
+        let join = |x: f64, y: f64| match goal {
+            Goal::Worst => x.min(y),
+            Goal::Mean { .. } => x + y,
+        };
+        let unit = match goal {
+            Goal::Worst => f64::INFINITY,
+            Goal::Mean { .. } => 0.0,
+        };
+        let mut best = vec![vec![unit; m]; m];
+        let mut split = vec![vec![usize::MAX; m]; m];
+        for len in 2..m {
+            for i in 0..m - len {
+                let j = i + len;
+                best[i][j] = f64::NEG_INFINITY;
+                for k in i + 1..j {
+                    let v = join(join(tri_q(i, k, j), best[i][k]), best[k][j]);
+                    if v > best[i][j] {
+                        best[i][j] = v;
+                        split[i][j] = k;
+                    }
+                }
+            }
+        }
+        if !goal.gains(&old, best[0][m - 1], 2 * (m - 2)) {
+            return false;
+        }
+        let mut new_tris = Vec::new();
+        let mut stack = vec![(0usize, m - 1)];
+        while let Some((i, j)) = stack.pop() {
+            if j < i + 2 {
+                continue;
+            }
+            let k = split[i][j];
+            new_tris.push((ring[i], ring[k], ring[j]));
+            stack.push((i, k));
+            stack.push((k, j));
+        }
+        for t in ring_tets {
+            self.remove(t);
+        }
+        for (a, b, c) in new_tris {
+            self.add([a, b, c, d]);
+            self.add([a, c, b, e]);
+        }
+        true
+    }
+
+    /// Replaces the two tets sharing the interior face (a, b, c) by three
+    /// around the edge joining their apexes, if that meets `goal`.
+    fn try_2_3(&mut self, f: [u32; 3], goal: Goal) -> bool {
+        let pair = self.around(&f);
+        if pair.len() != 2 {
+            return false;
+        }
+        let apex = |t: u32| -> u32 {
+            self.tets[t as usize]
+                .iter()
+                .cloned()
+                .find(|v| !f.contains(v))
+                .unwrap_or(u32::MAX)
+        };
+        let (d, e) = (apex(pair[0]), apex(pair[1]));
+        if d == u32::MAX || e == u32::MAX || !self.around(&[d, e]).is_empty() {
+            return false;
+        }
+        let (t0, t1) = (self.tets[pair[0] as usize], self.tets[pair[1] as usize]);
+        let old = [goal.value(self.pos, &t0), goal.value(self.pos, &t1)];
+        let old_min = self.q(&t0).min(self.q(&t1));
+        let mut new = Vec::new();
+        for i in 0..3 {
+            let (a, b) = (f[i], f[(i + 1) % 3]);
+            let t = if self.orient(a, b, d, e) > 0.0 {
+                [a, b, d, e]
+            } else {
+                [b, a, d, e]
+            };
+            new.push(t);
+        }
+        // valid only if the three have one orientation pattern: all
+        // positive as built and the segment d–e crosses the face
+        let signs: Vec<f64> = (0..3)
+            .map(|i| self.orient(f[i], f[(i + 1) % 3], d, e))
+            .collect();
+        if !(signs.iter().all(|&s| s > 0.0) || signs.iter().all(|&s| s < 0.0)) {
+            return false;
+        }
+        let new_min = new.iter().map(|t| self.q(t)).fold(f64::INFINITY, f64::min);
+        let value = match goal {
+            Goal::Worst => new_min,
+            Goal::Mean { .. } if new_min < goal.floor(old_min) => f64::NEG_INFINITY,
+            Goal::Mean { .. } => new.iter().map(|t| goal.value(self.pos, t)).sum(),
+        };
+        if !goal.gains(&old, value, 3) {
+            return false;
+        }
+        self.remove(pair[0]);
+        self.remove(pair[1]);
+        for t in new {
+            self.add(t);
+        }
+        true
+    }
+
+    fn into_tets(self) -> Vec<[u32; 4]> {
+        self.tets
+            .into_iter()
+            .zip(self.dead)
+            .filter(|(_, d)| !d)
+            .map(|(t, _)| t)
+            .collect()
+    }
+}
+
+/// What a flip must improve to be accepted.
+#[derive(Clone, Copy, Debug)]
+enum Goal {
+    /// The worst radius ratio of the tetrahedra it replaces must rise.
+    Worst,
+    /// The mesh's mean radius ratio must rise: the new tetrahedra's sum of
+    /// radius ratios must beat the old ones' by more than `mu` (about the
+    /// mesh's mean) per tetrahedron added, and none may fall below the
+    /// smaller of the old worst and `floor`.
+    Mean { mu: f64, floor: f64 },
+}
+
+impl Goal {
+    /// What a tetrahedron contributes: its [`objective`] for `Worst`, its
+    /// radius ratio (what the mean measures) for `Mean`.
+    fn value(self, pos: &[P3], t: &[u32; 4]) -> f64 {
+        match self {
+            Goal::Worst => tet_q(pos, t),
+            Goal::Mean { .. } => radius_ratio_of(pos, t),
+        }
+    }
+
+    fn floor(self, old_min: f64) -> f64 {
+        match self {
+            Goal::Worst => f64::NEG_INFINITY,
+            Goal::Mean { floor, .. } => old_min.min(floor),
+        }
+    }
+
+    /// Whether replacing tetrahedra of radius ratios `old` by `n_new` ones
+    /// of value `new` (their worst, or their sum) is an improvement.
+    fn gains(self, old: &[f64], new: f64, n_new: usize) -> bool {
+        match self {
+            Goal::Worst => new > old.iter().cloned().fold(f64::INFINITY, f64::min) + 1e-6,
+            Goal::Mean { mu, .. } => {
+                new - old.iter().sum::<f64>() > (n_new as f64 - old.len() as f64) * mu + 1e-6
+            }
+        }
+    }
+}
+
+/// Edge removals and 2-3 flips around every tetrahedron whose
+/// [`objective`](super::sliver::objective) is below [`TARGET_Q`], each
+/// accepted only when it raises the worst objective of the tetrahedra it
+/// replaces (so it terminates); up to 4 sweeps. Returns the flips made.
+pub fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>) -> usize {
+    sweep(pos, tets, Goal::Worst, TARGET_Q, 4)
+}
+
+/// One sweep of edge removals and 2-3 flips around every tetrahedron whose
+/// objective is below `below`, each accepted when it raises the mesh's mean
+/// radius ratio (about `mu` before the sweep; a flip adding k tetrahedra
+/// must add more than k·`mu` to the sum) and no new tetrahedron falls below
+/// min(the old worst, [`TARGET_Q`]). Returns the flips made.
+///
+/// Why: after smoothing, the mesh is no longer Delaunay, and a node's star
+/// often holds a tetrahedron no move can fix. On case I (d = 0.02 + 0.1·x)
+/// one sweep around tetrahedra below 0.7 made 1,737 flips among 117k
+/// tetrahedra, the mean went 0.886 → 0.892, and the next smoothing pass
+/// reached 0.901 where a pass without flips reaches 0.887.
+pub fn raise_mean(pos: &[P3], tets: &mut Vec<[u32; 4]>, mu: f64, below: f64) -> usize {
+    let goal = Goal::Mean {
+        mu,
+        floor: TARGET_Q,
+    };
+    sweep(pos, tets, goal, below, 1)
+}
+
+/// Up to `sweeps` passes over the tetrahedra below `below`: for each, the
+/// first of its edges whose removal meets `goal`, else the first of its
+/// faces whose 2-3 flip does.
+fn sweep(pos: &[P3], tets: &mut Vec<[u32; 4]>, goal: Goal, below: f64, sweeps: usize) -> usize {
+    let mut tm = TetMesh::new(pos, tets);
+    let mut flips = 0;
+    for _ in 0..sweeps {
+        let mut changed = 0;
+        let work: Vec<u32> = (0..tm.tets.len() as u32)
+            .filter(|&t| !tm.dead[t as usize] && tm.q(&tm.tets[t as usize]) < below)
+            .collect();
+        for t in work {
+            if tm.dead[t as usize] {
+                continue;
+            }
+            let tt = tm.tets[t as usize];
+            let flipped = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+                .iter()
+                .any(|&(i, j)| tm.try_edge_removal(tt[i], tt[j], goal))
+                || FACE3
+                    .iter()
+                    .any(|f| tm.try_2_3([tt[f[0]], tt[f[1]], tt[f[2]]], goal));
+            if flipped {
+                changed += 1;
+            }
+        }
+        flips += changed;
+        if changed == 0 {
+            break;
+        }
+    }
+    *tets = tm.into_tets();
+    flips
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::polish::tests::{
+        assert_positive, jittered_lattice, mean_q, worst_objective,
+    };
+    use std::collections::HashMap;
+
+    /// Faces (sorted corners) -> how many tetrahedra hold them.
+    fn face_count(tets: &[[u32; 4]]) -> HashMap<[u32; 3], usize> {
+        let mut m = HashMap::new();
+        for t in tets {
+            for f in FACE3 {
+                let mut k = f.map(|i| t[i]);
+                k.sort();
+                *m.entry(k).or_insert(0) += 1;
+            }
+        }
+        m
+    }
+
+    fn volume(pos: &[P3], tets: &[[u32; 4]]) -> f64 {
+        tets.iter()
+            .map(|t| {
+                let [a, b, c, d] = t.map(|k| pos[k as usize]);
+                (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
+            })
+            .sum()
+    }
+
+    /// A mean-raising sweep on a jittered lattice: the mean rises, and the
+    /// result is still a tetrahedralization of the same box with the same
+    /// boundary: every tetrahedron positive, every face held by one or two,
+    /// the one-tetrahedron faces exactly the old ones, the volume unchanged,
+    /// and no new tetrahedron below min(old worst, TARGET_Q).
+    #[test]
+    fn raise_mean_keeps_a_conforming_tetrahedralization() {
+        let (pos, _, tets0) = jittered_lattice(8, 0.45);
+        let mut tets = tets0.clone();
+        let m0 = mean_q(&pos, &tets0);
+        let flips = raise_mean(&pos, &mut tets, m0, 1.0);
+        assert!(flips > 0);
+        let m1 = mean_q(&pos, &tets);
+        assert!(m1 > m0 + 0.01, "mean {m0} -> {m1}");
+        assert_positive(&pos, &tets);
+        let boundary = |tets: &[[u32; 4]]| {
+            let fc = face_count(tets);
+            assert!(fc.values().all(|&c| c == 1 || c == 2));
+            let mut b: Vec<[u32; 3]> = fc
+                .into_iter()
+                .filter(|&(_, c)| c == 1)
+                .map(|(f, _)| f)
+                .collect();
+            b.sort();
+            b
+        };
+        assert_eq!(boundary(&tets0), boundary(&tets));
+        assert!((volume(&pos, &tets) - volume(&pos, &tets0)).abs() < 1e-9);
+        assert!(worst_objective(&pos, &tets) >= worst_objective(&pos, &tets0).min(TARGET_Q));
+    }
+
+    /// The sliver goal never lowers the worst tetrahedron.
+    #[test]
+    fn raise_worst_lifts_the_worst_tetrahedron() {
+        let (pos, _, tets0) = jittered_lattice(8, 0.45);
+        let mut tets = tets0.clone();
+        let w0 = worst_objective(&pos, &tets0);
+        assert!(w0 < TARGET_Q);
+        assert!(raise_worst(&pos, &mut tets) > 0);
+        assert!(worst_objective(&pos, &tets) > w0);
+        assert_positive(&pos, &tets);
+        assert!((volume(&pos, &tets) - volume(&pos, &tets0)).abs() < 1e-9);
+    }
+}
