@@ -23,7 +23,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Instant;
 
-use bubblemesh_core::engine::{Integrator, Progress};
+use bubblemesh_core::engine::{Integrator, Progress, VolumeLattice};
 use bubblemesh_core::quality::{self, QualityReport};
 use bubblemesh_core::spacing::Expr;
 use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, P3, V3};
@@ -121,6 +121,11 @@ struct MeshArgs {
     /// Stage 1 only (hierarchical placement, thesis §4.1): fast, lower quality.
     #[arg(long)]
     fast: bool,
+    /// Volumes: start from the thesis's face-centred cubic packing and run
+    /// stage 2 even where the spacing is uniform (default there: a
+    /// body-centred cubic lattice, better tetrahedra in less time).
+    #[arg(long)]
+    fcc: bool,
     /// Write a JSON report (counts, timings, energy history, quality) here.
     #[arg(long)]
     report: Option<PathBuf>,
@@ -453,6 +458,11 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
     let mut opts = Options {
         dim: a.dim.or((is_step && model.dim() == 3).then_some(2)),
         fast: a.fast,
+        volume_lattice: if a.fcc {
+            VolumeLattice::Fcc
+        } else {
+            VolumeLattice::Auto
+        },
         ..Default::default()
     };
     opts.relax.integrator = match a.integrator {

@@ -39,6 +39,7 @@ use crate::spacing::{Spacing, SpacingQuery};
 
 pub use dynamics::Integrator;
 pub use system::{RelaxSettings, RelaxStats};
+pub use volume::VolumeLattice;
 
 use constraint::{Carrier, OnFace};
 use region::Region;
@@ -76,6 +77,9 @@ pub struct Options {
     pub fast: bool,
     /// Stage-2 settings (integrator, step limit, tolerance).
     pub relax: RelaxSettings,
+    /// The stage-1 lattice of volumes (BCC where the spacing is uniform,
+    /// by default; see [`volume`]).
+    pub volume_lattice: volume::VolumeLattice,
     pub progress: Option<ProgressFn>,
 }
 
@@ -85,6 +89,7 @@ impl Default for Options {
             dim: None,
             fast: false,
             relax: RelaxSettings::default(),
+            volume_lattice: volume::VolumeLattice::default(),
             progress: None,
         }
     }
@@ -96,6 +101,7 @@ impl std::fmt::Debug for Options {
             .field("dim", &self.dim)
             .field("fast", &self.fast)
             .field("relax", &self.relax)
+            .field("volume_lattice", &self.volume_lattice)
             .finish()
     }
 }
