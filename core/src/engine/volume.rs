@@ -77,6 +77,17 @@ pub const BCC_CELL: f64 = 1.082_93;
 /// no Delaunay tetrahedron of BCC (it has no degenerate one).
 pub const BCC_JITTER: f64 = 1e-6;
 
+/// A BCC start is given up for FCC and stage 2 when more than this
+/// fraction of its Delaunay tetrahedra are below the sliver target
+/// ([`super::sliver::TARGET_Q`]). Where the lattice meets the boundary's
+/// bubbles unrelaxed, thin parts get many poor tetrahedra, and the sliver
+/// pass then costs more than stage 2 and ODT would have: b3d_flange at 1.5
+/// had 3.6 % (mean 0.899 in 28 s against FCC's 0.912 in 10 s), b3d_bracket
+/// 2.9 %, a unit cube at d = 0.1 5.0 % (0.905 against 0.910); bulky ones
+/// stay below: the unit cube at d = 0.05 1.3 %, the ball at 0.08 1.2 %,
+/// b3d_nurbs_torus 1.7 %, case K 0.9 %.
+pub const BCC_MAX_BAD: f64 = 0.02;
+
 /// The stage-1 lattice of a volume.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -307,8 +318,11 @@ pub struct VolumeReport {
     pub boundary_bubbles: usize,
     pub boundary_triangles: usize,
     pub stage1_bubbles: usize,
-    /// The stage-1 lattice.
+    /// The stage-1 lattice used.
     pub lattice: Option<Lattice>,
+    /// When a BCC start was given up for FCC: the fraction of its
+    /// tetrahedra below the sliver target (see [`BCC_MAX_BAD`]).
+    pub bcc_rejected: Option<f64>,
     /// Free bubbles in the mesh.
     pub bubbles: usize,
     pub tetrahedra: usize,
@@ -367,7 +381,7 @@ pub(super) fn mesh_volume(
     timings: &mut super::Timings,
 ) -> Result<VolumeReport, MeshError> {
     use std::time::Instant;
-    let t1 = Instant::now();
+    let t0 = Instant::now();
     let ve = EntityRef::new(3, vi as u32);
     let volume = &model.volumes[vi];
     let boundary = boundary_of(model, vi, mesh)?;
@@ -394,11 +408,6 @@ pub(super) fn mesh_volume(
     let fixed_d: Vec<f64> = fixed_ids.iter().map(|&i| node_d[i as usize]).collect();
     let local_tris: Vec<[u32; 3]> = boundary.iter().map(|t| t.map(|v| local[&v])).collect();
     let shell = Shell::new(fixed_pos.clone(), &local_tris);
-    let carrier = InVolume {
-        entity: ve,
-        geometry: volume.geometry.as_deref(),
-        shell: &shell,
-    };
     let (mut lo, mut hi) = (fixed_pos[0], fixed_pos[0]);
     for p in &fixed_pos {
         for k in 0..3 {
@@ -412,84 +421,111 @@ pub(super) fn mesh_volume(
         factor: packing,
     };
     let spacing: &dyn Spacing = &scaled;
-    let lattice = match (opts.volume_lattice, spacing.constant()) {
+    let mut lattice = match (opts.volume_lattice, spacing.constant()) {
         (VolumeLattice::Auto, Some(_)) => Lattice::Bcc,
         _ => Lattice::Fcc,
     };
-    let seeds = lattice_seeds(&carrier, spacing, lo, hi, &fixed_pos, &fixed_d, lattice)?;
+    let n_fixed = fixed_ids.len();
     let mut rep = VolumeReport {
         volume: vi as u32,
         name: volume.name.clone(),
-        lattice: Some(lattice),
-        boundary_bubbles: fixed_ids.len(),
+        boundary_bubbles: n_fixed,
         boundary_triangles: boundary.len(),
-        stage1_bubbles: seeds.len(),
         ..Default::default()
     };
-    let n_fixed = fixed_ids.len();
-    let mut sys = super::system::System {
-        carrier,
-        spacing,
-        dim: 3,
-        n_fixed,
-        pos: fixed_pos,
-        params: vec![[0.0; 2]; n_fixed],
-        vel: vec![V3::zeros(); n_fixed],
-        d: fixed_d,
-        fixed_ids: fixed_ids.clone(),
-        pressure: if spacing.constant().is_some() {
-            1.0
-        } else {
-            super::system::PRESSURE
-        },
-    };
-    for (p, d) in seeds {
-        sys.push_free(p, [0.0; 2], d);
-    }
-    timings.stage1_s += t1.elapsed().as_secs_f64();
-    // a BCC lattice needs neither stage 2 nor ODT (module docs)
-    let relax = !opts.fast && lattice == Lattice::Fcc;
-    if relax {
-        let t2 = Instant::now();
-        // stage 1 is already a balanced FCC packing away from the boundary,
-        // and the ODT smoothing after stage 2 finishes the job: more steps
-        // cost time in proportion to the bubbles and did not improve the
-        // tetrahedra (measured on cases H, I with bench/run_3d.py)
-        let settings = super::system::RelaxSettings {
-            max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
-            ..opts.relax
+    timings.stage1_s += t0.elapsed().as_secs_f64();
+    // at most two attempts: BCC, and FCC if BCC's tetrahedralization is
+    // too poor next to the boundary (see BCC_MAX_BAD)
+    let (sys, conn, t3) = loop {
+        let t1 = Instant::now();
+        let carrier = InVolume {
+            entity: ve,
+            geometry: volume.geometry.as_deref(),
+            shell: &shell,
         };
-        let max = settings.max_steps;
-        let progress = opts.progress.clone();
-        let stats = sys.relax(&settings, |step| {
-            if let Some(p) = &progress {
-                p(super::Progress {
-                    phase: "relax",
-                    entity: ve,
-                    step,
-                    max_steps: max,
-                });
-            }
-        })?;
-        rep.relax = Some(stats);
-        timings.stage2_s += t2.elapsed().as_secs_f64();
-    }
-
-    // connection
-    let t3 = Instant::now();
-    if relax {
-        rep.odt_iterations = super::odt::smooth(
-            &mut sys.pos,
+        let seeds = lattice_seeds(&carrier, spacing, lo, hi, &fixed_pos, &fixed_d, lattice)?;
+        rep.lattice = Some(lattice);
+        rep.stage1_bubbles = seeds.len();
+        let mut sys = super::system::System {
+            carrier,
+            spacing,
+            dim: 3,
             n_fixed,
-            &sys.d,
-            &sys.carrier,
-            super::odt::ITERATIONS,
-        );
-    }
-    rep.odt_s = t3.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
-        .map_err(|e| MeshError::Invalid(e.to_string()))?;
+            pos: fixed_pos.clone(),
+            params: vec![[0.0; 2]; n_fixed],
+            vel: vec![V3::zeros(); n_fixed],
+            d: fixed_d.clone(),
+            fixed_ids: fixed_ids.clone(),
+            pressure: if spacing.constant().is_some() {
+                1.0
+            } else {
+                super::system::PRESSURE
+            },
+        };
+        for (p, d) in seeds {
+            sys.push_free(p, [0.0; 2], d);
+        }
+        timings.stage1_s += t1.elapsed().as_secs_f64();
+        // a BCC lattice needs neither stage 2 nor ODT (module docs)
+        let relax = !opts.fast && lattice == Lattice::Fcc;
+        if relax {
+            let t2 = Instant::now();
+            // stage 1 is already a balanced FCC packing away from the
+            // boundary, and the ODT smoothing after stage 2 finishes the
+            // job: more steps cost time in proportion to the bubbles and did
+            // not improve the tetrahedra (measured on cases H, I with
+            // bench/run_3d.py)
+            let settings = super::system::RelaxSettings {
+                max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
+                ..opts.relax
+            };
+            let max = settings.max_steps;
+            let progress = opts.progress.clone();
+            let stats = sys.relax(&settings, |step| {
+                if let Some(p) = &progress {
+                    p(super::Progress {
+                        phase: "relax",
+                        entity: ve,
+                        step,
+                        max_steps: max,
+                    });
+                }
+            })?;
+            rep.relax = Some(stats);
+            timings.stage2_s += t2.elapsed().as_secs_f64();
+        }
+
+        // connection
+        let t3 = Instant::now();
+        if relax {
+            rep.odt_iterations = super::odt::smooth(
+                &mut sys.pos,
+                n_fixed,
+                &sys.d,
+                &sys.carrier,
+                super::odt::ITERATIONS,
+            );
+        }
+        rep.odt_s = t3.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
+            .map_err(|e| MeshError::Invalid(e.to_string()))?;
+        rep.delaunay_s += t.elapsed().as_secs_f64();
+        if lattice == Lattice::Bcc && !opts.fast {
+            let bad = conn
+                .tets
+                .iter()
+                .filter(|t| super::sliver::objective_of(&sys.pos, t) < super::sliver::TARGET_Q)
+                .count();
+            let frac = bad as f64 / conn.tets.len().max(1) as f64;
+            if frac > BCC_MAX_BAD {
+                rep.bcc_rejected = Some(frac);
+                lattice = Lattice::Fcc;
+                continue;
+            }
+        }
+        break (sys, conn, t3);
+    };
     rep.recovery_removed = conn.removed;
     let mut tets = conn.tets;
     let mut pos = sys.pos.clone();
@@ -497,7 +533,6 @@ pub(super) fn mesh_volume(
     let mut movable: Vec<bool> = (0..pos.len())
         .map(|i| i >= n_fixed && conn.kept[i])
         .collect();
-    rep.delaunay_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     if !opts.fast {
         // the Delaunay tetrahedralization's flat tetrahedra among boundary
