@@ -211,12 +211,13 @@ fn radius_ratios(m: &Mesh) -> Vec<f64> {
 /// A uniform spacing starts volumes from a body-centred cubic lattice
 /// (engine::volume): away from the boundary every tetrahedron is the BCC
 /// one (radius ratio 3/√10 = 0.9487), and the mean beats the thesis's FCC
-/// path on the same cube, which stays available and valid (at d = 0.07:
-/// 0.917 against 0.912; the boundary layer, where both need the sliver
-/// pass and the polish, is a large part of so coarse a cube).
+/// path on the same cube, which stays available and valid (at d = 0.05:
+/// 0.925 against 0.913; at d = 0.07 and coarser, 2 % or more of BCC's
+/// tetrahedra next to the boundary are poor and the engine falls back to
+/// FCC, see engine::volume::BCC_MAX_BAD).
 #[test]
 fn uniform_cube_is_bcc_inside_and_beats_the_fcc_path() {
-    let s = Constant(0.07);
+    let s = Constant(0.05);
     let bcc = mesh3(CUBE, &s);
     check_valid(&bcc);
     let qb = radius_ratios(&bcc);
@@ -244,7 +245,7 @@ fn uniform_cube_is_bcc_inside_and_beats_the_fcc_path() {
     let mean = |q: &[f64]| q.iter().sum::<f64>() / q.len() as f64;
     let min = |q: &[f64]| q.iter().cloned().fold(f64::INFINITY, f64::min);
     assert!(
-        mean(&qb) > mean(&qf) + 0.003,
+        mean(&qb) > mean(&qf) + 0.008,
         "BCC {} FCC {}",
         mean(&qb),
         mean(&qf)
