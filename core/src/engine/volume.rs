@@ -321,7 +321,9 @@ pub struct VolumeReport {
     /// The stage-1 lattice used.
     pub lattice: Option<Lattice>,
     /// When a BCC start was given up for FCC: the fraction of its
-    /// tetrahedra below the sliver target (see [`BCC_MAX_BAD`]).
+    /// tetrahedra below the sliver target, right after the connection (see
+    /// [`BCC_MAX_BAD`]) or, if any were left, after the sliver pass and the
+    /// polish.
     pub bcc_rejected: Option<f64>,
     /// Free bubbles in the mesh.
     pub bubbles: usize,
@@ -420,6 +422,7 @@ pub(super) fn mesh_volume(
         inner: spacing,
         factor: packing,
     };
+    let requested = spacing;
     let spacing: &dyn Spacing = &scaled;
     let mut lattice = match (opts.volume_lattice, spacing.constant()) {
         (VolumeLattice::Auto, Some(_)) => Lattice::Bcc,
@@ -599,6 +602,32 @@ pub(super) fn mesh_volume(
         rep.polish_moves = stats.moves;
         rep.polish_flips = stats.flips;
         rep.polish_s = t.elapsed().as_secs_f64();
+        let below = |tets: &[[u32; 4]], pos: &[P3]| {
+            tets.iter()
+                .filter(|t| super::sliver::objective_of(pos, t) < super::sliver::TARGET_Q)
+                .count()
+        };
+        if below(&tets, &pos) > 0 {
+            // the polish's flips give the sliver pass new room
+            let s = super::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
+            rep.slivers.moves += s.moves;
+            rep.slivers.flips += s.flips;
+            rep.slivers.bad_after = s.bad_after;
+            rep.slivers.min_q_after = s.min_q_after;
+        }
+        let left = below(&tets, &pos);
+        if lattice == Lattice::Bcc && left > 0 {
+            // worse than the thesis's path usually leaves: take that one
+            // (measured on fixtures/step/loft.step: 4 tetrahedra of the BCC
+            // start stayed at 0.51)
+            let fcc = super::Options {
+                volume_lattice: VolumeLattice::Fcc,
+                ..opts.clone()
+            };
+            let mut r = mesh_volume(model, vi, requested, &fcc, mesh, node_d, timings)?;
+            r.bcc_rejected = Some(left as f64 / tets.len().max(1) as f64);
+            return Ok(r);
+        }
     }
     // never hand out a flat tetrahedron (a solver divides by its volume):
     // refuse the volume instead, naming where
