@@ -25,11 +25,15 @@
 //!   force balance by symmetry, and measured on a unit cube stage 2 and
 //!   ODT gave it nothing (d = 0.05: mean 0.927 with both, 0.926 without),
 //!   so only the layer next to the boundary needs the sliver pass and the
-//!   polish. Unit cube, one thread, d = 0.05: mean 0.913 → 0.926, 6.5 s →
-//!   3.9 s; d = 0.015 (case K): 0.917 → 0.941, 251 s → 69 s. The thesis's
-//!   FCC path stays available ([`VolumeLattice::Fcc`], `--fcc`), and is
-//!   always used for a varying spacing (a BCC octree measured the same as
-//!   FCC on case I, 0.904 against 0.903).
+//!   polish. Unit cube, one thread (bench/run_3d.py), d = 0.05 (case H):
+//!   mean 0.913 → 0.925, 6.5 s → 3.0 s; d = 0.015 (case K): 0.917 → 0.941,
+//!   251 s → 63 s. Where BCC meets a thin part's boundary unrelaxed it is
+//!   worse, so it is given up for FCC when its first tetrahedralization
+//!   looks poor ([`BCC_MAX_BAD`], locked slivers, recovery removals) or
+//!   its result is ([`BCC_FLOOR`]). The thesis's FCC path stays available
+//!   ([`VolumeLattice::Fcc`], `--fcc`), and is always used for a varying
+//!   spacing (a BCC octree measured the same as FCC on case I, 0.904
+//!   against 0.903).
 //! - Inside/outside: the adapter's exact answer where it has one, and
 //!   always the boundary mesh ([`Shell::inside`]), so no bubble leaves the
 //!   meshed boundary.
