@@ -267,7 +267,8 @@ impl<'a> TetMesh<'a> {
 /// What a flip must improve to be accepted.
 #[derive(Clone, Copy, Debug)]
 enum Goal {
-    /// The worst radius ratio of the tetrahedra it replaces must rise.
+    /// The worst [`objective`](super::sliver::objective) of the
+    /// tetrahedra it replaces must rise.
     Worst,
     /// The mesh's mean radius ratio must rise: the new tetrahedra's sum of
     /// radius ratios must beat the old ones' by more than `mu` (about the

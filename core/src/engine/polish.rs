@@ -204,17 +204,16 @@ fn search(pos: &[P3], tets: &[[u32; 4]], star: &[u32], v: usize, d: f64) -> P3 {
         })
     };
     let mut at = pos[v];
-    let regular = |at: &P3| {
-        star.iter().all(|&t| {
-            let [a, b, c, e] = corners(t, at);
-            radius_ratio(&a, &b, &c, &e) >= SKIP_Q
-        })
-    };
-    if regular(&at) {
+    // the star's sum and smallest radius ratio, in one pass
+    let (mut best, smallest) = star.iter().fold((0.0, f64::INFINITY), |(s, m), &t| {
+        let [a, b, c, e] = corners(t, &at);
+        let q = radius_ratio(&a, &b, &c, &e);
+        (s + q, m.min(q))
+    });
+    if smallest >= SKIP_Q {
         return at;
     }
     let floor = worst(&at).min(TARGET_Q);
-    let mut best = sum(&at);
     // gradient ascent with backtracking: forward differences of the sum
     // (three star evaluations; central differences took six for the same
     // means on cases H and I, 0.913 and 0.903, and 1.4× the time), then

@@ -382,6 +382,31 @@ pub fn boundary_of(
     Ok(tris)
 }
 
+/// Meshes volume `vi` again from the thesis's FCC start, after its BCC
+/// start was given up (`frac`: the fraction of its tetrahedra that made
+/// it so, recorded in the report). Nothing of the BCC attempt is in `mesh`
+/// yet: nodes and tetrahedra are only added at the end of
+/// [`mesh_volume`].
+#[allow(clippy::too_many_arguments)]
+fn redo_from_fcc(
+    model: &crate::model::Model,
+    vi: usize,
+    spacing: &dyn Spacing,
+    opts: &super::Options,
+    mesh: &mut crate::mesh::Mesh,
+    node_d: &[f64],
+    timings: &mut super::Timings,
+    frac: f64,
+) -> Result<VolumeReport, MeshError> {
+    let fcc = super::Options {
+        volume_lattice: VolumeLattice::Fcc,
+        ..opts.clone()
+    };
+    let mut r = mesh_volume(model, vi, spacing, &fcc, mesh, node_d, timings)?;
+    r.bcc_rejected = Some(frac);
+    Ok(r)
+}
+
 /// Meshes volume `vi` whose faces are meshed in `mesh`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn mesh_volume(
@@ -435,120 +460,108 @@ pub(super) fn mesh_volume(
     };
     let requested = spacing;
     let spacing: &dyn Spacing = &scaled;
-    let mut lattice = match (opts.volume_lattice, spacing.constant()) {
+    let lattice = match (opts.volume_lattice, spacing.constant()) {
         (VolumeLattice::Auto, Some(_)) => Lattice::Bcc,
         _ => Lattice::Fcc,
     };
+    let carrier = InVolume {
+        entity: ve,
+        geometry: volume.geometry.as_deref(),
+        shell: &shell,
+    };
+    let seeds = lattice_seeds(&carrier, spacing, lo, hi, &fixed_pos, &fixed_d, lattice)?;
     let n_fixed = fixed_ids.len();
     let mut rep = VolumeReport {
         volume: vi as u32,
         name: volume.name.clone(),
+        lattice: Some(lattice),
         boundary_bubbles: n_fixed,
         boundary_triangles: boundary.len(),
+        stage1_bubbles: seeds.len(),
         ..Default::default()
     };
-    timings.stage1_s += t0.elapsed().as_secs_f64();
-    // at most two attempts: BCC, and FCC if BCC's tetrahedralization is
-    // too poor next to the boundary (see BCC_MAX_BAD)
-    let (sys, conn, t3) = loop {
-        let t1 = Instant::now();
-        let carrier = InVolume {
-            entity: ve,
-            geometry: volume.geometry.as_deref(),
-            shell: &shell,
-        };
-        let seeds = lattice_seeds(&carrier, spacing, lo, hi, &fixed_pos, &fixed_d, lattice)?;
-        rep.lattice = Some(lattice);
-        rep.stage1_bubbles = seeds.len();
-        let mut sys = super::system::System {
-            carrier,
-            spacing,
-            dim: 3,
-            n_fixed,
-            pos: fixed_pos.clone(),
-            params: vec![[0.0; 2]; n_fixed],
-            vel: vec![V3::zeros(); n_fixed],
-            d: fixed_d.clone(),
-            fixed_ids: fixed_ids.clone(),
-            pressure: if spacing.constant().is_some() {
-                1.0
-            } else {
-                super::system::PRESSURE
-            },
-        };
-        for (p, d) in seeds {
-            sys.push_free(p, [0.0; 2], d);
-        }
-        timings.stage1_s += t1.elapsed().as_secs_f64();
-        // a BCC lattice needs neither stage 2 nor ODT (module docs)
-        let relax = !opts.fast && lattice == Lattice::Fcc;
-        if relax {
-            let t2 = Instant::now();
-            // stage 1 is already a balanced FCC packing away from the
-            // boundary, and the ODT smoothing after stage 2 finishes the
-            // job: more steps cost time in proportion to the bubbles and did
-            // not improve the tetrahedra (measured on cases H, I with
-            // bench/run_3d.py)
-            let settings = super::system::RelaxSettings {
-                max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
-                ..opts.relax
-            };
-            let max = settings.max_steps;
-            let progress = opts.progress.clone();
-            let stats = sys.relax(&settings, |step| {
-                if let Some(p) = &progress {
-                    p(super::Progress {
-                        phase: "relax",
-                        entity: ve,
-                        step,
-                        max_steps: max,
-                    });
-                }
-            })?;
-            rep.relax = Some(stats);
-            timings.stage2_s += t2.elapsed().as_secs_f64();
-        }
-
-        // connection
-        let t3 = Instant::now();
-        if relax {
-            rep.odt_iterations = super::odt::smooth(
-                &mut sys.pos,
-                n_fixed,
-                &sys.d,
-                &sys.carrier,
-                super::odt::ITERATIONS,
-            );
-        }
-        rep.odt_s = t3.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
-            .map_err(|e| MeshError::Invalid(e.to_string()))?;
-        rep.delaunay_s += t.elapsed().as_secs_f64();
-        if lattice == Lattice::Bcc && !opts.fast {
-            let bad = conn
-                .tets
-                .iter()
-                .filter(|t| super::sliver::objective_of(&sys.pos, t) < super::sliver::TARGET_Q)
-                .count();
-            let frac = bad as f64 / conn.tets.len().max(1) as f64;
-            // poor tetrahedra among boundary nodes only (or nodes the
-            // recovery removed) need Steiner rounds, each a full
-            // re-connection: block_holes.step at 0.8 spent 62 s there with
-            // BCC (1.9 % poor, 9 Steiner points), FCC none in 41 s in all
-            let fixed = |k: u32| (k as usize) < n_fixed || !conn.kept[k as usize];
-            let locked = conn.tets.iter().any(|t| {
-                t.iter().all(|&k| fixed(k))
-                    && super::sliver::objective_of(&sys.pos, t) < super::sliver::TARGET_Q
-            });
-            if frac > BCC_MAX_BAD || locked || conn.removed > 0 {
-                rep.bcc_rejected = Some(frac);
-                lattice = Lattice::Fcc;
-                continue;
-            }
-        }
-        break (sys, conn, t3);
+    let mut sys = super::system::System {
+        carrier,
+        spacing,
+        dim: 3,
+        n_fixed,
+        pos: fixed_pos,
+        params: vec![[0.0; 2]; n_fixed],
+        vel: vec![V3::zeros(); n_fixed],
+        d: fixed_d,
+        fixed_ids: fixed_ids.clone(),
+        pressure: if spacing.constant().is_some() {
+            1.0
+        } else {
+            super::system::PRESSURE
+        },
     };
+    for (p, d) in seeds {
+        sys.push_free(p, [0.0; 2], d);
+    }
+    timings.stage1_s += t0.elapsed().as_secs_f64();
+    // a BCC lattice needs neither stage 2 nor ODT (module docs)
+    let relax = !opts.fast && lattice == Lattice::Fcc;
+    if relax {
+        let t2 = Instant::now();
+        // stage 1 is already a balanced FCC packing away from the boundary,
+        // and the ODT smoothing after stage 2 finishes the job: more steps
+        // cost time in proportion to the bubbles and did not improve the
+        // tetrahedra (measured on cases H, I with bench/run_3d.py)
+        let settings = super::system::RelaxSettings {
+            max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
+            ..opts.relax
+        };
+        let max = settings.max_steps;
+        let progress = opts.progress.clone();
+        let stats = sys.relax(&settings, |step| {
+            if let Some(p) = &progress {
+                p(super::Progress {
+                    phase: "relax",
+                    entity: ve,
+                    step,
+                    max_steps: max,
+                });
+            }
+        })?;
+        rep.relax = Some(stats);
+        timings.stage2_s += t2.elapsed().as_secs_f64();
+    }
+
+    // connection
+    let t3 = Instant::now();
+    if relax {
+        rep.odt_iterations = super::odt::smooth(
+            &mut sys.pos,
+            n_fixed,
+            &sys.d,
+            &sys.carrier,
+            super::odt::ITERATIONS,
+        );
+    }
+    rep.odt_s = t3.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
+        .map_err(|e| MeshError::Invalid(e.to_string()))?;
+    rep.delaunay_s = t.elapsed().as_secs_f64();
+    if lattice == Lattice::Bcc && !opts.fast {
+        let poor =
+            |t: &[u32; 4]| super::sliver::objective_of(&sys.pos, t) < super::sliver::TARGET_Q;
+        let frac =
+            conn.tets.iter().filter(|t| poor(t)).count() as f64 / conn.tets.len().max(1) as f64;
+        // poor tetrahedra among boundary nodes only (or nodes the recovery
+        // removed) need Steiner rounds, each a full re-connection:
+        // block_holes.step at 0.8 spent 62 s there with BCC (1.9 % poor, 9
+        // Steiner points), FCC none in 41 s in all
+        let fixed = |k: u32| (k as usize) < n_fixed || !conn.kept[k as usize];
+        let locked = conn
+            .tets
+            .iter()
+            .any(|t| t.iter().all(|&k| fixed(k)) && poor(t));
+        if frac > BCC_MAX_BAD || locked || conn.removed > 0 {
+            return redo_from_fcc(model, vi, requested, opts, mesh, node_d, timings, frac);
+        }
+    }
     rep.recovery_removed = conn.removed;
     let mut tets = conn.tets;
     let mut pos = sys.pos.clone();
@@ -622,34 +635,27 @@ pub(super) fn mesh_volume(
         rep.polish_moves = stats.moves;
         rep.polish_flips = stats.flips;
         rep.polish_s = t.elapsed().as_secs_f64();
-        let below = |tets: &[[u32; 4]], pos: &[P3]| {
-            tets.iter()
-                .filter(|t| super::sliver::objective_of(pos, t) < super::sliver::TARGET_Q)
-                .count()
-        };
-        if below(&tets, &pos) > 0 {
+        let poor = tets
+            .iter()
+            .any(|t| super::sliver::objective_of(&pos, t) < super::sliver::TARGET_Q);
+        if poor {
             // the polish's flips give the sliver pass new room
             let s = super::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
             rep.slivers.moves += s.moves;
             rep.slivers.flips += s.flips;
             rep.slivers.bad_after = s.bad_after;
             rep.slivers.min_q_after = s.min_q_after;
-        }
-        let left = tets
-            .iter()
-            .filter(|t| super::sliver::objective_of(&pos, t) < BCC_FLOOR)
-            .count();
-        if lattice == Lattice::Bcc && left > 0 {
-            // worse than the thesis's path usually leaves: take that one
-            // (measured on fixtures/step/loft.step: 4 tetrahedra of the BCC
-            // start stayed at 0.51, dihedral angle 24.8°)
-            let fcc = super::Options {
-                volume_lattice: VolumeLattice::Fcc,
-                ..opts.clone()
-            };
-            let mut r = mesh_volume(model, vi, requested, &fcc, mesh, node_d, timings)?;
-            r.bcc_rejected = Some(left as f64 / tets.len().max(1) as f64);
-            return Ok(r);
+            if lattice == Lattice::Bcc && s.min_q_after < BCC_FLOOR {
+                // worse than the thesis's path usually leaves: take that
+                // one (measured on fixtures/step/loft.step: 4 tetrahedra
+                // of the BCC start stayed at 0.51, dihedral angle 24.8°)
+                let left = tets
+                    .iter()
+                    .filter(|t| super::sliver::objective_of(&pos, t) < BCC_FLOOR)
+                    .count();
+                let frac = left as f64 / tets.len().max(1) as f64;
+                return redo_from_fcc(model, vi, requested, opts, mesh, node_d, timings, frac);
+            }
         }
     }
     // never hand out a flat tetrahedron (a solver divides by its volume):
