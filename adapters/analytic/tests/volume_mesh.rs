@@ -7,6 +7,7 @@
 use std::collections::HashMap;
 
 use bubblemesh_analytic::parse_domain;
+use bubblemesh_core::engine::sliver::radius_ratio;
 use bubblemesh_core::engine::VolumeLattice;
 use bubblemesh_core::quality::analyse;
 use bubblemesh_core::spacing::{Constant, Expr};
@@ -188,23 +189,13 @@ fn graded_cube_follows_the_spacing() {
     assert!(t.q_mean > 0.885, "mean radius ratio {}", t.q_mean);
 }
 
-/// Radius ratio of every tetrahedron.
+/// Radius ratio of every tetrahedron (the engine's own measure).
 fn radius_ratios(m: &Mesh) -> Vec<f64> {
     m.tetrahedra
         .iter()
         .map(|t| {
             let [a, b, c, d] = t.nodes.map(|k| m.nodes[k as usize].pos);
-            let faces = [(a, b, c), (a, b, d), (a, c, d), (b, c, d)];
-            let area: f64 = faces
-                .iter()
-                .map(|(x, y, z)| 0.5 * (y - x).cross(&(z - x)).norm())
-                .sum();
-            let (u, v, w) = (b - a, c - a, d - a);
-            let vol6 = u.dot(&v.cross(&w));
-            let n = v.cross(&w) * u.norm_squared()
-                + w.cross(&u) * v.norm_squared()
-                + u.cross(&v) * w.norm_squared();
-            3.0 * vol6 * vol6 / (area * n.norm())
+            radius_ratio(&a, &b, &c, &d)
         })
         .collect()
 }

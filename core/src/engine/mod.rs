@@ -68,6 +68,25 @@ pub struct Progress {
 /// A progress callback.
 pub type ProgressFn = Arc<dyn Fn(Progress) + Send + Sync>;
 
+/// The stage-2 step callback of `entity`: forwards each step to
+/// `progress`, if there is one, as phase "relax".
+fn relax_progress(
+    progress: &Option<ProgressFn>,
+    entity: EntityRef,
+    max_steps: usize,
+) -> impl FnMut(usize) + '_ {
+    move |step| {
+        if let Some(p) = progress {
+            p(Progress {
+                phase: "relax",
+                entity,
+                step,
+                max_steps,
+            });
+        }
+    }
+}
+
 /// Engine options.
 #[derive(Clone)]
 pub struct Options {
@@ -936,18 +955,10 @@ fn mesh_face(
     // stage 2
     if !opts.fast {
         let t2 = Instant::now();
-        let max = opts.relax.max_steps;
-        let progress = opts.progress.clone();
-        let stats = sys.relax(&opts.relax, |step| {
-            if let Some(p) = &progress {
-                p(Progress {
-                    phase: "relax",
-                    entity: fe,
-                    step,
-                    max_steps: max,
-                });
-            }
-        })?;
+        let stats = sys.relax(
+            &opts.relax,
+            relax_progress(&opts.progress, fe, opts.relax.max_steps),
+        )?;
         fr.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();
     }

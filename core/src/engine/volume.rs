@@ -512,18 +512,10 @@ pub(super) fn mesh_volume(
             max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
             ..opts.relax
         };
-        let max = settings.max_steps;
-        let progress = opts.progress.clone();
-        let stats = sys.relax(&settings, |step| {
-            if let Some(p) = &progress {
-                p(super::Progress {
-                    phase: "relax",
-                    entity: ve,
-                    step,
-                    max_steps: max,
-                });
-            }
-        })?;
+        let stats = sys.relax(
+            &settings,
+            super::relax_progress(&opts.progress, ve, settings.max_steps),
+        )?;
         rep.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();
     }
