@@ -16,18 +16,31 @@ use crate::geom::{P3, V3};
 
 use super::sliver::{objective_of as tet_q, radius_ratio_of, FACE3, TARGET_Q};
 
-/// A tetrahedral mesh being improved: tets with a dead flag and, per node,
-/// the live tets around it.
+/// A tetrahedral mesh being improved: tets with a dead flag and their
+/// [`objective`](super::sliver::objective) (`qv`, kept current: nodes
+/// never move here), and per node the live tets around it.
 struct TetMesh<'a> {
     pos: &'a [P3],
     tets: Vec<[u32; 4]>,
+    qv: Vec<f64>,
     dead: Vec<bool>,
     inc: Vec<Vec<u32>>,
 }
 
 impl<'a> TetMesh<'a> {
-    fn new(pos: &'a [P3], tets: &[[u32; 4]]) -> Self {
-        let mut inc = vec![Vec::new(); pos.len()];
+    /// `qv[i]` must be the objective of `tets[i]`.
+    fn new(pos: &'a [P3], tets: Vec<[u32; 4]>, qv: Vec<f64>) -> Self {
+        let mut count = vec![0u32; pos.len()];
+        for t in &tets {
+            for &v in t {
+                count[v as usize] += 1;
+            }
+        }
+        // room for a few flips per node without reallocating
+        let mut inc: Vec<Vec<u32>> = count
+            .iter()
+            .map(|&c| Vec::with_capacity(c as usize + 4))
+            .collect();
         for (ti, t) in tets.iter().enumerate() {
             for &v in t {
                 inc[v as usize].push(ti as u32);
@@ -35,8 +48,9 @@ impl<'a> TetMesh<'a> {
         }
         TetMesh {
             pos,
-            tets: tets.to_vec(),
             dead: vec![false; tets.len()],
+            tets,
+            qv,
             inc,
         }
     }
@@ -54,6 +68,7 @@ impl<'a> TetMesh<'a> {
 
     fn add(&mut self, t: [u32; 4]) {
         let ti = self.tets.len() as u32;
+        self.qv.push(self.q(&t));
         self.tets.push(t);
         self.dead.push(false);
         for &v in &t {
@@ -132,7 +147,7 @@ impl<'a> TetMesh<'a> {
             .collect();
         let old_min = ring_tets
             .iter()
-            .map(|&t| self.q(&self.tets[t as usize]))
+            .map(|&t| self.qv[t as usize])
             .fold(f64::INFINITY, f64::min);
         // Klincsek's dynamic programme over triangulations of the ring:
         // best[i][j] = the best value of the polygon ring[i..=j], its worst
@@ -218,7 +233,7 @@ impl<'a> TetMesh<'a> {
         }
         let (t0, t1) = (self.tets[pair[0] as usize], self.tets[pair[1] as usize]);
         let old = [goal.value(self.pos, &t0), goal.value(self.pos, &t1)];
-        let old_min = self.q(&t0).min(self.q(&t1));
+        let old_min = self.qv[pair[0] as usize].min(self.qv[pair[1] as usize]);
         let mut new = Vec::new();
         for i in 0..3 {
             let (a, b) = (f[i], f[(i + 1) % 3]);
@@ -254,13 +269,15 @@ impl<'a> TetMesh<'a> {
         true
     }
 
-    fn into_tets(self) -> Vec<[u32; 4]> {
+    /// The live tets and their objectives.
+    fn into_tets(self) -> (Vec<[u32; 4]>, Vec<f64>) {
         self.tets
             .into_iter()
+            .zip(self.qv)
             .zip(self.dead)
             .filter(|(_, d)| !d)
-            .map(|(t, _)| t)
-            .collect()
+            .map(|(tq, _)| tq)
+            .unzip()
     }
 }
 
@@ -309,9 +326,10 @@ impl Goal {
 /// Edge removals and 2-3 flips around every tetrahedron whose
 /// [`objective`](super::sliver::objective) is below [`TARGET_Q`], each
 /// accepted only when it raises the worst objective of the tetrahedra it
-/// replaces (so it terminates); up to 4 sweeps. Returns the flips made.
-pub fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>) -> usize {
-    sweep(pos, tets, Goal::Worst, TARGET_Q, 4)
+/// replaces (so it terminates); up to 4 sweeps. `qs[i]` is the objective
+/// of `tets[i]`, on entry and on return. Returns the flips made.
+pub fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>, qs: &mut Vec<f64>) -> usize {
+    sweep(pos, tets, qs, Goal::Worst, TARGET_Q, 4)
 }
 
 /// One sweep of edge removals and 2-3 flips around every tetrahedron whose
@@ -330,19 +348,27 @@ pub fn raise_mean(pos: &[P3], tets: &mut Vec<[u32; 4]>, mu: f64, below: f64) -> 
         mu,
         floor: TARGET_Q,
     };
-    sweep(pos, tets, goal, below, 1)
+    let mut qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    sweep(pos, tets, &mut qs, goal, below, 1)
 }
 
 /// Up to `sweeps` passes over the tetrahedra below `below`: for each, the
 /// first of its edges whose removal meets `goal`, else the first of its
 /// faces whose 2-3 flip does.
-fn sweep(pos: &[P3], tets: &mut Vec<[u32; 4]>, goal: Goal, below: f64, sweeps: usize) -> usize {
-    let mut tm = TetMesh::new(pos, tets);
+fn sweep(
+    pos: &[P3],
+    tets: &mut Vec<[u32; 4]>,
+    qs: &mut Vec<f64>,
+    goal: Goal,
+    below: f64,
+    sweeps: usize,
+) -> usize {
+    let mut tm = TetMesh::new(pos, std::mem::take(tets), std::mem::take(qs));
     let mut flips = 0;
     for _ in 0..sweeps {
         let mut changed = 0;
         let work: Vec<u32> = (0..tm.tets.len() as u32)
-            .filter(|&t| !tm.dead[t as usize] && tm.q(&tm.tets[t as usize]) < below)
+            .filter(|&t| !tm.dead[t as usize] && tm.qv[t as usize] < below)
             .collect();
         for t in work {
             if tm.dead[t as usize] {
@@ -364,7 +390,7 @@ fn sweep(pos: &[P3], tets: &mut Vec<[u32; 4]>, goal: Goal, below: f64, sweeps: u
             break;
         }
     }
-    *tets = tm.into_tets();
+    (*tets, *qs) = tm.into_tets();
     flips
 }
 
@@ -436,7 +462,11 @@ mod tests {
         let mut tets = tets0.clone();
         let w0 = worst_objective(&pos, &tets0);
         assert!(w0 < TARGET_Q);
-        assert!(raise_worst(&pos, &mut tets) > 0);
+        let mut qs: Vec<f64> = tets.iter().map(|t| tet_q(&pos, t)).collect();
+        assert!(raise_worst(&pos, &mut tets, &mut qs) > 0);
+        for (t, q) in tets.iter().zip(&qs) {
+            assert_eq!(*q, tet_q(&pos, t), "the objectives stay current");
+        }
         assert!(worst_objective(&pos, &tets) > w0);
         assert_positive(&pos, &tets);
         assert!((volume(&pos, &tets) - volume(&pos, &tets0)).abs() < 1e-9);
