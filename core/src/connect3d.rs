@@ -149,9 +149,15 @@ pub fn connect_volume(
             .map(|t| t.map(|k| active[k as usize]))
             .collect();
         // which boundary triangles are tet faces
+        // (only a face of three boundary nodes can be one: that test spares
+        // the hash lookup for nearly every face)
+        let on_boundary = |k: u32| (k as usize) < n_fixed;
         let mut found = vec![false; boundary.len()];
         for t in &tets {
             for f in FACE {
+                if !f.iter().all(|&i| on_boundary(t[i])) {
+                    continue;
+                }
                 if let Some(&k) = bset.get(&sorted3(f.map(|i| t[i]))) {
                     found[k] = true;
                 }
@@ -181,7 +187,7 @@ pub fn connect_volume(
             }
             continue;
         }
-        let inside = flood_inside(pts, &tets, &dt.neighbours, boundary, &bset)?;
+        let inside = flood_inside(pts, n_fixed, &tets, &dt.neighbours, boundary, &bset)?;
         let mut out = Vec::with_capacity(inside.iter().filter(|&&b| b).count());
         for (t, &ins) in tets.iter().zip(&inside) {
             if !ins {
@@ -262,9 +268,11 @@ pub(crate) fn circumball(a: &P3, b: &P3, c: &P3) -> (P3, f64) {
 }
 
 /// Marks the tetrahedra inside the boundary: flood from the inner side of
-/// each boundary triangle without crossing boundary triangles.
+/// each boundary triangle without crossing boundary triangles. The boundary
+/// triangles' corners are the points below `n_fixed`.
 fn flood_inside(
     pts: &[P3],
+    n_fixed: usize,
     tets: &[[u32; 4]],
     neighbours: &[[u32; 4]],
     boundary: &[[u32; 3]],
@@ -273,9 +281,16 @@ fn flood_inside(
     let mut inside = vec![false; tets.len()];
     let mut stack = Vec::new();
     let mut used = HashSet::new();
+    let boundary_face = |t: &[u32; 4], f: &[usize; 3]| -> Option<usize> {
+        if f.iter().all(|&i| (t[i] as usize) < n_fixed) {
+            bset.get(&sorted3(f.map(|i| t[i]))).copied()
+        } else {
+            None
+        }
+    };
     for (ti, t) in tets.iter().enumerate() {
         for (k, f) in FACE.iter().enumerate() {
-            if let Some(&bk) = bset.get(&sorted3(f.map(|i| t[i]))) {
+            if let Some(bk) = boundary_face(t, f) {
                 let [a, b, c] = boundary[bk].map(|i| pts[i as usize]);
                 let d = pts[t[k] as usize];
                 // the fourth corner below the outward-oriented triangle:
@@ -293,7 +308,7 @@ fn flood_inside(
     while let Some(ti) = stack.pop() {
         let t = tets[ti];
         for (k, f) in FACE.iter().enumerate() {
-            if bset.contains_key(&sorted3(f.map(|i| t[i]))) {
+            if boundary_face(&t, f).is_some() {
                 continue;
             }
             let nb = neighbours[ti][k];
