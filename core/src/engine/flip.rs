@@ -18,32 +18,41 @@ use super::sliver::{objective_of as tet_q, radius_ratio_of, FACE3, TARGET_Q};
 
 /// A tetrahedral mesh being improved: tets with a dead flag and their
 /// [`objective`](super::sliver::objective) (`qv`, kept current: nodes
-/// never move here), and per node the live tets around it.
+/// never move here), and per node the tets around it: the initial ones in
+/// a compressed table (`start`, `csr`), those added by flips in `extra`;
+/// dead ones are skipped when read.
+///
+/// Why not a `Vec` per node: building 470k of them (case K) cost more than
+/// the flips it serves; flips touch a few thousand nodes.
 struct TetMesh<'a> {
     pos: &'a [P3],
     tets: Vec<[u32; 4]>,
     qv: Vec<f64>,
     dead: Vec<bool>,
-    inc: Vec<Vec<u32>>,
+    start: Vec<u32>,
+    csr: Vec<u32>,
+    extra: std::collections::HashMap<u32, Vec<u32>>,
 }
 
 impl<'a> TetMesh<'a> {
     /// `qv[i]` must be the objective of `tets[i]`.
     fn new(pos: &'a [P3], tets: Vec<[u32; 4]>, qv: Vec<f64>) -> Self {
-        let mut count = vec![0u32; pos.len()];
+        let n = pos.len();
+        let mut start = vec![0u32; n + 1];
         for t in &tets {
             for &v in t {
-                count[v as usize] += 1;
+                start[v as usize + 1] += 1;
             }
         }
-        // room for a few flips per node without reallocating
-        let mut inc: Vec<Vec<u32>> = count
-            .iter()
-            .map(|&c| Vec::with_capacity(c as usize + 4))
-            .collect();
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut csr = vec![0u32; start[n] as usize];
         for (ti, t) in tets.iter().enumerate() {
             for &v in t {
-                inc[v as usize].push(ti as u32);
+                csr[fill[v as usize] as usize] = ti as u32;
+                fill[v as usize] += 1;
             }
         }
         TetMesh {
@@ -51,7 +60,9 @@ impl<'a> TetMesh<'a> {
             dead: vec![false; tets.len()],
             tets,
             qv,
-            inc,
+            start,
+            csr,
+            extra: Default::default(),
         }
     }
 
@@ -61,9 +72,6 @@ impl<'a> TetMesh<'a> {
 
     fn remove(&mut self, ti: u32) {
         self.dead[ti as usize] = true;
-        for &v in &self.tets[ti as usize] {
-            self.inc[v as usize].retain(|&x| x != ti);
-        }
     }
 
     fn add(&mut self, t: [u32; 4]) {
@@ -72,17 +80,22 @@ impl<'a> TetMesh<'a> {
         self.tets.push(t);
         self.dead.push(false);
         for &v in &t {
-            self.inc[v as usize].push(ti);
+            self.extra.entry(v).or_default().push(ti);
         }
     }
 
     /// Live tets containing every node of `vs`.
     fn around(&self, vs: &[u32]) -> Vec<u32> {
-        let first = &self.inc[vs[0] as usize];
-        first
+        let v0 = vs[0] as usize;
+        let initial = &self.csr[self.start[v0] as usize..self.start[v0 + 1] as usize];
+        let added = self.extra.get(&vs[0]).map(|x| &x[..]).unwrap_or(&[]);
+        initial
             .iter()
+            .chain(added)
             .cloned()
-            .filter(|&t| vs[1..].iter().all(|v| self.tets[t as usize].contains(v)))
+            .filter(|&t| {
+                !self.dead[t as usize] && vs[1..].iter().all(|v| self.tets[t as usize].contains(v))
+            })
             .collect()
     }
 
@@ -363,6 +376,9 @@ fn sweep(
     below: f64,
     sweeps: usize,
 ) -> usize {
+    if !qs.iter().any(|&q| q < below) {
+        return 0;
+    }
     let mut tm = TetMesh::new(pos, std::mem::take(tets), std::mem::take(qs));
     let mut flips = 0;
     for _ in 0..sweeps {
