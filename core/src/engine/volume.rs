@@ -623,7 +623,12 @@ pub(super) fn mesh_volume(
     rep.sliver_s = t.elapsed().as_secs_f64();
     if !opts.fast {
         let t = Instant::now();
-        let stats = super::polish::polish(&mut pos, &movable, &mut tets, &d);
+        // one round of flips suffices after BCC (see FLIP_ROUNDS)
+        let rounds = match lattice {
+            Lattice::Bcc => 1,
+            Lattice::Fcc => super::polish::FLIP_ROUNDS,
+        };
+        let stats = super::polish::polish(&mut pos, &movable, &mut tets, &d, rounds);
         rep.polish_moves = stats.moves;
         rep.polish_flips = stats.flips;
         rep.polish_s = t.elapsed().as_secs_f64();
