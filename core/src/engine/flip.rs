@@ -37,24 +37,7 @@ struct TetMesh<'a> {
 impl<'a> TetMesh<'a> {
     /// `qv[i]` must be the objective of `tets[i]`.
     fn new(pos: &'a [P3], tets: Vec<[u32; 4]>, qv: Vec<f64>) -> Self {
-        let n = pos.len();
-        let mut start = vec![0u32; n + 1];
-        for t in &tets {
-            for &v in t {
-                start[v as usize + 1] += 1;
-            }
-        }
-        for k in 0..n {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut csr = vec![0u32; start[n] as usize];
-        for (ti, t) in tets.iter().enumerate() {
-            for &v in t {
-                csr[fill[v as usize] as usize] = ti as u32;
-                fill[v as usize] += 1;
-            }
-        }
+        let (start, csr) = super::sliver::node_tets(pos.len(), &tets);
         TetMesh {
             pos,
             dead: vec![false; tets.len()],

@@ -110,24 +110,8 @@ pub fn smooth(
 ) -> usize {
     let n = pos.len();
     // node -> tetrahedra (CSR)
-    let mut start = vec![0usize; n + 1];
-    for t in tets {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; start[n]];
-    for (ti, t) in tets.iter().enumerate() {
-        for &v in t {
-            inc[fill[v as usize]] = ti as u32;
-            fill[v as usize] += 1;
-        }
-    }
-    let star = |v: usize| &inc[start[v]..start[v + 1]];
+    let (start, inc) = super::sliver::node_tets(n, tets);
+    let star = |v: usize| &inc[start[v] as usize..start[v + 1] as usize];
     let mut moved = 0;
     for _ in 0..passes {
         // only nodes with a tetrahedron below SKIP_Q in their star are

@@ -257,6 +257,29 @@ pub fn steiner_points(
     out
 }
 
+/// The tetrahedra around each of `n` nodes, as a compressed table: those
+/// of node v are `inc[start[v]..start[v + 1]]`, in increasing order.
+pub(crate) fn node_tets(n: usize, tets: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; n + 1];
+    for t in tets.iter() {
+        for &v in t {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut inc = vec![0u32; start[n] as usize];
+    for (ti, t) in tets.iter().enumerate() {
+        for &v in t {
+            inc[fill[v as usize] as usize] = ti as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    (start, inc)
+}
+
 fn positive(pos: &[P3], t: &[u32; 4]) -> bool {
     let [a, b, c, d] = t.map(|k| crate::connect3d::c3(&pos[k as usize]));
     // det(b−a, c−a, d−a) > 0 ⇔ robust's orient3d(a, b, c, d) < 0
@@ -303,23 +326,7 @@ fn smooth(
     qs: &mut [f64],
 ) -> SliverStats {
     let n = pos.len();
-    let mut start = vec![0u32; n + 1];
-    for t in tets.iter() {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut fill = start.clone();
-    let mut inc = vec![0u32; start[n] as usize];
-    for (ti, t) in tets.iter().enumerate() {
-        for &v in t {
-            inc[fill[v as usize] as usize] = ti as u32;
-            fill[v as usize] += 1;
-        }
-    }
+    let (start, inc) = node_tets(n, tets);
     let star = |v: usize| &inc[start[v] as usize..start[v + 1] as usize];
     // the objectives are kept current as nodes move (topology is fixed
     // within a pass): the rounds read their work from them instead of
