@@ -451,13 +451,7 @@ mod tests {
     /// every shape (regular-ish to slivers, caps, needles and inverted).
     #[test]
     fn objective_matches_its_definition() {
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rnd = crate::engine::volume::jitter_source(0x9e37_79b9_7f4a_7c15);
         let mut skipped = 0;
         for k in 0..20000 {
             let scale = [1.0, 0.3, 0.02][k % 3];

@@ -192,6 +192,18 @@ impl Carrier for InVolume<'_> {
     }
 }
 
+/// Deterministic uniform numbers in [−0.5, 0.5) (xorshift64 from `seed`,
+/// which must not be 0): the BCC seeds' jitter, and test inputs.
+pub(crate) fn jitter_source(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+}
+
 /// Stage 1 for a volume: bubbles of `lattice` inside `carrier`'s volume
 /// within the box `lo..hi`, with their spacing. Bubbles too close to a
 /// fixed bubble (`fixed`, with diameters `fixed_d`) are left out.
@@ -289,14 +301,8 @@ pub fn lattice_seeds(
     let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
     let grid = super::grid::Grid::new(fixed, dmax_fixed.max(f64::MIN_POSITIVE));
     let mut out = Vec::new();
-    // xorshift64 with a fixed seed: the same mesh on every run
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    let mut unit = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    // a fixed seed: the same mesh on every run
+    let mut unit = jitter_source(0x9E37_79B9_7F4A_7C15);
     for mut p in cand {
         if jitter > 0.0 {
             p += V3::new(unit(), unit(), unit()) * jitter;
