@@ -85,6 +85,27 @@ fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
 /// when the tet is positive.
 pub(crate) const FACE: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
+/// `tets` in the order of their lowest node, ties in their given order: a
+/// counting sort (O(n), where a comparison sort of case K's 2.75 M
+/// tetrahedra took a tenth of a second).
+fn by_lowest_node(n: usize, tets: Vec<[u32; 4]>) -> Vec<[u32; 4]> {
+    let low = |t: &[u32; 4]| *t.iter().min().unwrap_or(&0) as usize;
+    let mut start = vec![0usize; n + 1];
+    for t in &tets {
+        start[low(t) + 1] += 1;
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut out = vec![[0u32; 4]; tets.len()];
+    for t in tets {
+        let k = low(&t);
+        out[start[k]] = t;
+        start[k] += 1;
+    }
+    out
+}
+
 /// Connects the points `pts` of one volume: the first `n_fixed` are
 /// boundary nodes, the rest free bubbles; `boundary` are the boundary
 /// triangles (indices into `pts`), oriented with outward normals.
@@ -203,6 +224,12 @@ pub fn connect_volume(
                 [t[0], t[2], t[1], t[3]]
             });
         }
+        // in the order of their lowest node: the kernel leaves them in the
+        // order its cavities freed slots, and every later pass (node ->
+        // tetrahedra tables, stars, flips) walks them by node; sorted, those
+        // walks stay in cache (case K: each of 13 node tables 0.17 s -> 0.065 s, and the
+        // whole run 19.5 s -> 15.8 s)
+        let out = by_lowest_node(n, out);
         return Ok(VolumeConnection {
             kept,
             tets: out,

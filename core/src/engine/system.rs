@@ -341,7 +341,9 @@ impl<'a, C: Carrier> System<'a, C> {
         let mut cand: Vec<u32> = Vec::new();
         let mut moves: Vec<Move> = Vec::new();
         let mut respace: Vec<u32> = Vec::new();
-        let energy_stride = (self.n() / 5_000).max(1);
+        // at most about ENERGY_SAMPLES samples: a sample is a sweep over
+        // every pair, as dear as a step when most bubbles sleep
+        let energy_stride = s.max_steps.div_ceil(ENERGY_SAMPLES).max(1);
         let mut last_energy: Option<f64> = None;
         for step in 1..=s.max_steps {
             if self.n() == self.n_fixed {
@@ -613,6 +615,10 @@ pub const PRESSURE: f64 = 1.05;
 const SKIN: f64 = 0.3;
 /// Steps between energy-plateau checks.
 const PLATEAU_WINDOW: usize = 25;
+
+/// Samples of the energy history per relaxation, at most (plus the first
+/// step's): enough for the curves of Fig. 5.7.
+const ENERGY_SAMPLES: usize = 150;
 /// Relative potential-energy drop per window below which stage 2 stops.
 const PLATEAU: f64 = 1e-5;
 /// A bubble sleeps when its net force is below this fraction of k0·d ...
