@@ -61,6 +61,21 @@ const ASCENT_STEPS: usize = 6;
 const FIRST_STEP: f64 = 0.05;
 const LAST_STEP: f64 = 0.01;
 
+/// Which nodes [`polish`] searches again after a round of flips.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Resmooth {
+    /// Every node with a star tetrahedron below [`SKIP_Q`] (as the first
+    /// pass): after an FCC start, where the whole interior was relaxed and
+    /// a second full pass still gains (case I: mean 0.9027 against 0.9005
+    /// with `Touched`).
+    All,
+    /// Only the nodes whose star the flips changed: after a BCC start,
+    /// where the first pass already settled the boundary layer (case K:
+    /// 30k nodes instead of 72k, 0.4 s instead of 2.3 s, mean 0.9408
+    /// against 0.9411).
+    Touched,
+}
+
 /// What [`polish`] did.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PolishStats {
@@ -80,6 +95,7 @@ pub fn polish(
     tets: &mut Vec<[u32; 4]>,
     d: &[f64],
     rounds: usize,
+    after_flips: Resmooth,
 ) -> PolishStats {
     let mut stats = PolishStats {
         moves: smooth(pos, movable, tets, d, 1),
@@ -88,12 +104,16 @@ pub fn polish(
     for _ in 0..rounds.min(FLIP_ROUNDS) {
         let mu =
             tets.iter().map(|t| radius_ratio_of(pos, t)).sum::<f64>() / tets.len().max(1) as f64;
-        let flips = super::flip::raise_mean(pos, tets, mu, FLIP_BELOW);
+        let (flips, touched) = super::flip::raise_mean(pos, tets, mu, FLIP_BELOW);
         stats.flips += flips;
         if flips == 0 {
             break;
         }
-        stats.moves += smooth(pos, movable, tets, d, 1);
+        let among = match after_flips {
+            Resmooth::All => None,
+            Resmooth::Touched => Some(&touched[..]),
+        };
+        stats.moves += smooth_among(pos, movable, tets, d, 1, among);
     }
     stats
 }
@@ -108,6 +128,18 @@ pub fn smooth(
     d: &[f64],
     passes: usize,
 ) -> usize {
+    smooth_among(pos, movable, tets, d, passes, None)
+}
+
+/// [`smooth`], searching only the nodes of `among` (sorted), if given.
+fn smooth_among(
+    pos: &mut [P3],
+    movable: &[bool],
+    tets: &[[u32; 4]],
+    d: &[f64],
+    passes: usize,
+    among: Option<&[u32]>,
+) -> usize {
     let n = pos.len();
     // node -> tetrahedra (CSR)
     let (start, inc) = super::sliver::node_tets(n, tets);
@@ -118,10 +150,23 @@ pub fn smooth(
         // searched (search() would return the others unmoved), so only they
         // are coloured: on case K a sixth of the free nodes
         let mut wanted = vec![false; n];
-        for t in tets {
-            if radius_ratio_of(pos, t) < SKIP_Q {
-                for &v in t {
-                    wanted[v as usize] = movable[v as usize];
+        match among {
+            None => {
+                for t in tets {
+                    if radius_ratio_of(pos, t) < SKIP_Q {
+                        for &v in t {
+                            wanted[v as usize] = movable[v as usize];
+                        }
+                    }
+                }
+            }
+            Some(nodes) => {
+                for &v in nodes {
+                    let v = v as usize;
+                    wanted[v] = movable[v]
+                        && star(v)
+                            .iter()
+                            .any(|&t| radius_ratio_of(pos, &tets[t as usize]) < SKIP_Q);
                 }
             }
         }
@@ -381,7 +426,14 @@ pub(crate) mod tests {
         let (mut pos_s, tets_s) = (pos0.clone(), tets0.clone());
         smooth(&mut pos_s, &movable, &tets_s, &d, 1 + FLIP_ROUNDS);
         let (mut pos_p, mut tets_p) = (pos0.clone(), tets0.clone());
-        let stats = polish(&mut pos_p, &movable, &mut tets_p, &d, FLIP_ROUNDS);
+        let stats = polish(
+            &mut pos_p,
+            &movable,
+            &mut tets_p,
+            &d,
+            FLIP_ROUNDS,
+            Resmooth::All,
+        );
         let (ms, mp) = (mean_q(&pos_s, &tets_s), mean_q(&pos_p, &tets_p));
         assert!(stats.flips > 0);
         assert!(mp > ms + 0.05, "smoothing {ms}, polish {mp} ({stats:?})");
