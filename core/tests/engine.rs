@@ -238,11 +238,11 @@ fn square_system<'a>(spacing: &'a Constant) -> System<'a, OnFace<'static>> {
         boundary.push([0.0, 1.0 - k as f64 / n as f64]);
     }
     let plane: &'static Plane = Box::leak(Box::new(Plane::xy()));
-    let carrier = OnFace {
-        surface: plane,
-        region: Region::new(&[boundary.clone()]),
-        entity: EntityRef::new(2, 0),
-    };
+    let carrier = OnFace::new(
+        plane,
+        Region::new(&[boundary.clone()]),
+        EntityRef::new(2, 0),
+    );
     let nf = boundary.len();
     System {
         carrier,
@@ -359,11 +359,7 @@ fn growth_on_a_plane_is_one_hexagonal_crystal() {
     let d = 0.05;
     let plane = Plane::xy();
     let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-    let carrier = OnFace {
-        surface: &plane,
-        region: Region::new(&[square]),
-        entity: EntityRef::new(2, 0),
-    };
+    let carrier = OnFace::new(&plane, Region::new(&[square]), EntityRef::new(2, 0));
     let start = Seed {
         pos: P3::new(0.5, 0.5, 0.0),
         params: [0.5, 0.5],

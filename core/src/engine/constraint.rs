@@ -49,11 +49,47 @@ pub trait Carrier: Sync {
     fn planar(&self) -> bool;
 }
 
-/// Bubbles on a trimmed surface.
+/// Bubbles on a trimmed surface. Build it with [`OnFace::new`].
 pub struct OnFace<'a> {
     pub surface: &'a dyn Surface,
     pub region: Region,
     pub entity: EntityRef,
+    /// On a plane ([`Surface::is_planar`]: an affine parametrization),
+    /// S_u and S_v and the tangent frame, which are the same everywhere.
+    /// Why: for the six faces of case K, evaluating them per bubble and
+    /// step through the trait object cost more than the forces.
+    plane: Option<PlaneFrame>,
+}
+
+#[derive(Clone, Copy)]
+struct PlaneFrame {
+    su: V3,
+    sv: V3,
+    frame: (V3, V3),
+}
+
+impl<'a> OnFace<'a> {
+    pub fn new(surface: &'a dyn Surface, region: Region, entity: EntityRef) -> Self {
+        let mut f = OnFace {
+            surface,
+            region,
+            entity,
+            plane: None,
+        };
+        if surface.is_planar() {
+            let (lo, hi) = f.region.bbox();
+            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            let dv = surface.derivs(mid[0], mid[1]);
+            if !f.degenerate(mid, &dv.su, &dv.sv) {
+                f.plane = Some(PlaneFrame {
+                    su: dv.su,
+                    sv: dv.sv,
+                    frame: f.frame(mid),
+                });
+            }
+        }
+        f
+    }
 }
 
 /// Solves the first-fundamental-form system for the parameter step of a
@@ -107,6 +143,14 @@ impl Carrier for OnFace<'_> {
         self.entity
     }
     fn advance(&self, _pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+        if let Some(pl) = &self.plane {
+            let step = parameter_step(&pl.su, &pl.sv, dx)?;
+            let uv = self.region.wrap([params[0] + step[0], params[1] + step[1]]);
+            if !(uv[0].is_finite() && uv[1].is_finite()) || !self.contains(uv) {
+                return None;
+            }
+            return Some((self.surface.point(uv[0], uv[1]), uv));
+        }
         let dv = self.surface.derivs(params[0], params[1]);
         let uv = if self.degenerate(params, &dv.su, &dv.sv) {
             // near a pole or an apex the first fundamental form is singular:
@@ -123,6 +167,9 @@ impl Carrier for OnFace<'_> {
         Some((self.surface.point(uv[0], uv[1]), uv))
     }
     fn frame(&self, params: [f64; 2]) -> (V3, V3) {
+        if let Some(pl) = &self.plane {
+            return pl.frame;
+        }
         let dv = self.tangent_derivs(params);
         let (a, b) = if dv.su.norm_squared() >= dv.sv.norm_squared() {
             (dv.su, dv.sv)

@@ -779,11 +779,7 @@ fn mesh_face(
         }
     }
     let (lo, hi) = region.bbox();
-    let carrier = OnFace {
-        surface,
-        region,
-        entity: fe,
-    };
+    let carrier = OnFace::new(surface, region, fe);
 
     // stage 1: oblique quadtree
     let uniform_leaf = spacing.constant().filter(|_| surface.is_planar()).map(|d| {
