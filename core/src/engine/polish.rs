@@ -229,12 +229,14 @@ fn colour<'a>(
 /// Why by hand: evaluating the star from the mesh's index arrays (which
 /// corner is v, four loads per tetrahedron) took a third of the polish's
 /// time on case K.
-struct Star {
+pub(crate) struct Star {
     faces: Vec<([P3; 3], f64)>,
 }
 
 impl Star {
-    fn gather(pos: &[P3], tets: &[[u32; 4]], star: &[u32], v: usize) -> Star {
+    /// The star of node `v`: the tetrahedra `star` (indices into `tets`),
+    /// in that order.
+    pub(crate) fn gather(pos: &[P3], tets: &[[u32; 4]], star: &[u32], v: usize) -> Star {
         let faces = star
             .iter()
             .map(|&t| {
@@ -287,8 +289,22 @@ impl Star {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// The smallest [`objective`] with v at `x`, or `None` as soon as one
+    /// tetrahedron (in the star's order) is no better than `best`.
+    pub(crate) fn worst_above(&self, x: &P3, best: f64) -> Option<f64> {
+        let mut m = f64::INFINITY;
+        for (f, _) in &self.faces {
+            let q = objective(x, &f[0], &f[1], &f[2]);
+            if q <= best {
+                return None;
+            }
+            m = m.min(q);
+        }
+        Some(m)
+    }
+
     /// Whether every tetrahedron is positive with v at `x` (exact).
-    fn positive(&self, x: &P3) -> bool {
+    pub(crate) fn positive(&self, x: &P3) -> bool {
         let x = crate::connect3d::c3(x);
         self.faces.iter().all(|(f, _)| {
             let [a, b, c] = f.map(|p| crate::connect3d::c3(&p));

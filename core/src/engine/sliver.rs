@@ -280,12 +280,6 @@ pub(crate) fn node_tets(n: usize, tets: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
     (start, inc)
 }
 
-fn positive(pos: &[P3], t: &[u32; 4]) -> bool {
-    let [a, b, c, d] = t.map(|k| crate::connect3d::c3(&pos[k as usize]));
-    // det(b−a, c−a, d−a) > 0 ⇔ robust's orient3d(a, b, c, d) < 0
-    robust::orient3d(a, b, c, d) < 0.0
-}
-
 /// Moves free nodes (`movable`) to raise the radius ratio of the tetrahedra
 /// below [`TARGET_Q`]. `d` is the spacing per node. Tetrahedra must be
 /// positively oriented and stay so.
@@ -466,44 +460,33 @@ fn smooth(
             order.extend_from_slice(star(v));
             order.sort_by(|&s, &t| qs[s as usize].total_cmp(&qs[t as usize]));
             let mut best = qs[order[0] as usize];
-            // the star's worst objective at the trial position, or None as
-            // soon as one tetrahedron is no better than `best`
-            let trial = |pos: &[P3], order: &[u32], best: f64| -> Option<f64> {
-                let mut m = f64::INFINITY;
-                for &t in order {
-                    let q = tet_q(pos, &tets[t as usize]);
-                    if q <= best + 1e-9 {
-                        return None;
-                    }
-                    m = m.min(q);
-                }
-                Some(m)
-            };
+            // the star gathered once for the whole search (its other
+            // corners do not move meanwhile; see polish::Star)
+            let sg = super::polish::Star::gather(pos, tets, &order, v);
             let p0 = pos[v];
+            let mut x = p0;
             let mut step = 0.1 * d[v];
             while step > 0.01 * d[v] {
                 let mut improved = false;
                 for dir in &dirs {
-                    let cand = pos[v] + dir * step;
+                    let cand = x + dir * step;
                     if (cand - origin[v]).norm() > MAX_MOVE * d[v] {
                         continue;
                     }
-                    let keep = pos[v];
-                    pos[v] = cand;
-                    let w = trial(pos, &order, best);
-                    if let Some(w) =
-                        w.filter(|_| order.iter().all(|&t| positive(pos, &tets[t as usize])))
+                    if let Some(w) = sg
+                        .worst_above(&cand, best + 1e-9)
+                        .filter(|_| sg.positive(&cand))
                     {
                         best = w;
                         improved = true;
-                    } else {
-                        pos[v] = keep;
+                        x = cand;
                     }
                 }
                 if !improved {
                     step *= 0.5;
                 }
             }
+            pos[v] = x;
             if pos[v] == p0 {
                 stuck[v] = true;
             } else {
