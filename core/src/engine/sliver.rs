@@ -289,9 +289,22 @@ pub fn improve(
     tets: &mut Vec<[u32; 4]>,
     d: &[f64],
 ) -> SliverStats {
+    let qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    improve_with(pos, movable, tets, d, qs)
+}
+
+/// [`improve`] given every tetrahedron's [`objective`] (`qs[i]` of
+/// `tets[i]`), for a caller that has just computed them.
+pub fn improve_with(
+    pos: &mut [P3],
+    movable: &mut [bool],
+    tets: &mut Vec<[u32; 4]>,
+    d: &[f64],
     // every tetrahedron's objective, kept current through the passes and
     // flips (one evaluation of the mesh instead of one per pass and sweep)
-    let mut qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    mut qs: Vec<f64>,
+) -> SliverStats {
+    debug_assert_eq!(qs.len(), tets.len());
     let mut stats = SliverStats::default();
     let mut before = None;
     for _ in 0..2 {
@@ -316,7 +329,9 @@ pub fn improve(
 /// (whose whole star is in the part) may move, and a flip needs a closed
 /// edge ring or a face with two tetrahedra in the part, which are then the
 /// mesh's own, so the rest of the mesh is untouched and stays conforming.
-/// Returns `None` when no tetrahedron is below [`TARGET_Q`].
+/// Returns `None` when no tetrahedron is below [`TARGET_Q`], else what
+/// [`improve`] did and the tetrahedra still below [`TARGET_Q`] (all of
+/// them: the others are untouched and were not).
 ///
 /// Why: after the polish, case K keeps about ten such tetrahedra among
 /// 2.75 M, and [`improve`] on the whole mesh (objectives, node tables and
@@ -326,7 +341,7 @@ pub fn improve_near_bad(
     movable: &[bool],
     tets: &mut Vec<[u32; 4]>,
     d: &[f64],
-) -> Option<SliverStats> {
+) -> Option<(SliverStats, Vec<[u32; 4]>)> {
     let bad: Vec<usize> = (0..tets.len())
         .filter(|&t| tet_q(pos, &tets[t]) < TARGET_Q)
         .collect();
@@ -387,8 +402,13 @@ pub fn improve_near_bad(
         k += 1;
         !in_part[k - 1]
     });
+    let still_bad = part
+        .iter()
+        .filter(|t| tet_q(&lpos, t) < TARGET_Q)
+        .map(|t| t.map(|l| global[l as usize] as u32))
+        .collect();
     tets.extend(part.iter().map(|t| t.map(|l| global[l as usize] as u32)));
-    Some(stats)
+    Some((stats, still_bad))
 }
 
 /// The smoothing pass of [`improve`]. `qs[i]` is the objective of
@@ -662,7 +682,14 @@ mod tests {
         );
         let mut tets = tets0.clone();
         let d = vec![1.0; pos.len()];
-        let stats = improve_near_bad(&mut pos, &movable, &mut tets, &d).expect("bad tetrahedra");
+        let (stats, still_bad) =
+            improve_near_bad(&mut pos, &movable, &mut tets, &d).expect("bad tetrahedra");
+        let bad_now: Vec<&[u32; 4]> = tets
+            .iter()
+            .filter(|t| objective_of(&pos, t) < TARGET_Q)
+            .collect();
+        assert_eq!(bad_now.len(), still_bad.len());
+        assert!(bad_now.iter().all(|t| still_bad.contains(t)));
         assert!(stats.bad_after < stats.bad_before);
         assert!(worst_objective(&pos, &tets) > w0);
         assert_positive(&pos, &tets);

@@ -569,11 +569,17 @@ pub(super) fn mesh_volume(
     let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
         .map_err(|e| MeshError::Invalid(e.to_string()))?;
     rep.delaunay_s = t.elapsed().as_secs_f64();
+    // the objectives of the first tetrahedralization: read here after a BCC
+    // start, and handed on to the sliver pass
+    let mut first_qs: Option<Vec<f64>> = None;
     if lattice == Lattice::Bcc && !opts.fast {
-        let poor =
-            |t: &[u32; 4]| super::sliver::objective_of(&sys.pos, t) < super::sliver::TARGET_Q;
-        let frac =
-            conn.tets.iter().filter(|t| poor(t)).count() as f64 / conn.tets.len().max(1) as f64;
+        let qs: Vec<f64> = conn
+            .tets
+            .iter()
+            .map(|t| super::sliver::objective_of(&sys.pos, t))
+            .collect();
+        let poor = |k: usize| qs[k] < super::sliver::TARGET_Q;
+        let frac = (0..qs.len()).filter(|&k| poor(k)).count() as f64 / qs.len().max(1) as f64;
         // poor tetrahedra among boundary nodes only (or nodes the recovery
         // removed) need Steiner rounds, each a full re-connection:
         // block_holes.step at 0.8 spent 62 s there with BCC (1.9 % poor, 9
@@ -582,10 +588,12 @@ pub(super) fn mesh_volume(
         let locked = conn
             .tets
             .iter()
-            .any(|t| t.iter().all(|&k| fixed(k)) && poor(t));
+            .enumerate()
+            .any(|(k, t)| t.iter().all(|&k| fixed(k)) && poor(k));
         if frac > BCC_MAX_BAD || locked || conn.removed > 0 {
             return redo_from_fcc(model, vi, requested, opts, mesh, node_d, timings, frac);
         }
+        first_qs = Some(qs);
     }
     rep.recovery_removed = conn.removed;
     let mut tets = conn.tets;
@@ -609,7 +617,10 @@ pub(super) fn mesh_volume(
             })
             .cloned()
             .collect();
-        rep.slivers = super::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
+        rep.slivers = match first_qs.take() {
+            Some(qs) => super::sliver::improve_with(&mut pos, &mut movable, &mut tets, &d, qs),
+            None => super::sliver::improve(&mut pos, &mut movable, &mut tets, &d),
+        };
         for _ in 0..super::sliver::STEINER_ROUNDS {
             // and those that improve() left
             work.extend(tets.iter().filter(|t| {
@@ -669,13 +680,17 @@ pub(super) fn mesh_volume(
         rep.polish_s = t.elapsed().as_secs_f64();
         // the polish's flips give the sliver pass new room
         let s = super::sliver::improve_near_bad(&mut pos, &movable, &mut tets, &d);
-        if let Some(s) = s {
+        if let Some((s, still_bad)) = s {
             rep.slivers.moves += s.moves;
             rep.slivers.flips += s.flips;
             rep.slivers.bad_after = s.bad_after;
             rep.slivers.min_q_after = s.min_q_after;
+            // below the floor means below TARGET_Q: only those can be
             let left = if lattice == Lattice::Bcc {
-                tets.iter().filter(|t| below_bcc_floor(&pos, t)).count()
+                still_bad
+                    .iter()
+                    .filter(|t| below_bcc_floor(&pos, t))
+                    .count()
             } else {
                 0
             };
