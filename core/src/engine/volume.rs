@@ -30,8 +30,8 @@
 //!   251 s → 63 s (session 7, after the sliver pass, flips and polish were
 //!   made cheaper and one flip round kept after BCC: 17.1 s, mean 0.941,
 //!   2.1× Gmsh HXT's time in the same run; session 8, with the
-//!   tetrahedra in node order and the local passes: 12.6 s, mean 0.941,
-//!   1.9×). Where BCC meets a thin part's boundary unrelaxed it is
+//!   tetrahedra in node order and the local passes: 9.1 s, mean 0.941,
+//!   1.76×). Where BCC meets a thin part's boundary unrelaxed it is
 //!   worse, so it is given up for FCC when its first tetrahedralization
 //!   looks poor ([`BCC_MAX_BAD`], locked slivers, recovery removals) or
 //!   its result is ([`BCC_FLOOR_RR`]). The thesis's FCC path stays available
