@@ -85,6 +85,23 @@ fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
 /// when the tet is positive.
 pub(crate) const FACE: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
+/// The boundary triangle (index into the boundary, looked up in `bset`)
+/// that is face `f` of tetrahedron `t`, if any. Only a face of three
+/// boundary nodes (indices below `n_fixed`) can be one: that test spares
+/// the hash lookup for nearly every face (33 M lookups on case K).
+fn boundary_face(
+    bset: &HashMap<[u32; 3], usize>,
+    n_fixed: usize,
+    t: &[u32; 4],
+    f: &[usize; 3],
+) -> Option<usize> {
+    if f.iter().all(|&i| (t[i] as usize) < n_fixed) {
+        bset.get(&sorted3(f.map(|i| t[i]))).copied()
+    } else {
+        None
+    }
+}
+
 /// `tets` in the order of their lowest node, ties in their given order: a
 /// counting sort (O(n), where a comparison sort of case K's 2.75 M
 /// tetrahedra took a tenth of a second).
@@ -170,16 +187,10 @@ pub fn connect_volume(
             .map(|t| t.map(|k| active[k as usize]))
             .collect();
         // which boundary triangles are tet faces
-        // (only a face of three boundary nodes can be one: that test spares
-        // the hash lookup for nearly every face)
-        let on_boundary = |k: u32| (k as usize) < n_fixed;
         let mut found = vec![false; boundary.len()];
         for t in &tets {
-            for f in FACE {
-                if !f.iter().all(|&i| on_boundary(t[i])) {
-                    continue;
-                }
-                if let Some(&k) = bset.get(&sorted3(f.map(|i| t[i]))) {
+            for f in &FACE {
+                if let Some(k) = boundary_face(&bset, n_fixed, t, f) {
                     found[k] = true;
                 }
             }
@@ -308,16 +319,9 @@ fn flood_inside(
     let mut inside = vec![false; tets.len()];
     let mut stack = Vec::new();
     let mut used = HashSet::new();
-    let boundary_face = |t: &[u32; 4], f: &[usize; 3]| -> Option<usize> {
-        if f.iter().all(|&i| (t[i] as usize) < n_fixed) {
-            bset.get(&sorted3(f.map(|i| t[i]))).copied()
-        } else {
-            None
-        }
-    };
     for (ti, t) in tets.iter().enumerate() {
         for (k, f) in FACE.iter().enumerate() {
-            if let Some(bk) = boundary_face(t, f) {
+            if let Some(bk) = boundary_face(bset, n_fixed, t, f) {
                 let [a, b, c] = boundary[bk].map(|i| pts[i as usize]);
                 let d = pts[t[k] as usize];
                 // the fourth corner below the outward-oriented triangle:
@@ -335,7 +339,7 @@ fn flood_inside(
     while let Some(ti) = stack.pop() {
         let t = tets[ti];
         for (k, f) in FACE.iter().enumerate() {
-            if boundary_face(&t, f).is_some() {
+            if boundary_face(bset, n_fixed, &t, f).is_some() {
                 continue;
             }
             let nb = neighbours[ti][k];

@@ -143,22 +143,20 @@ impl Carrier for OnFace<'_> {
         self.entity
     }
     fn advance(&self, _pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
-        if let Some(pl) = &self.plane {
+        let uv = if let Some(pl) = &self.plane {
             let step = parameter_step(&pl.su, &pl.sv, dx)?;
-            let uv = self.region.wrap([params[0] + step[0], params[1] + step[1]]);
-            if !(uv[0].is_finite() && uv[1].is_finite()) || !self.contains(uv) {
-                return None;
-            }
-            return Some((self.surface.point(uv[0], uv[1]), uv));
-        }
-        let dv = self.surface.derivs(params[0], params[1]);
-        let uv = if self.degenerate(params, &dv.su, &dv.sv) {
-            // near a pole or an apex the first fundamental form is singular:
-            // project the moved point back onto the surface instead
-            self.surface.inverse(&(dv.p + dx), Some(params))?
-        } else {
-            let step = parameter_step(&dv.su, &dv.sv, dx)?;
             [params[0] + step[0], params[1] + step[1]]
+        } else {
+            let dv = self.surface.derivs(params[0], params[1]);
+            if self.degenerate(params, &dv.su, &dv.sv) {
+                // near a pole or an apex the first fundamental form is
+                // singular: project the moved point back onto the surface
+                // instead
+                self.surface.inverse(&(dv.p + dx), Some(params))?
+            } else {
+                let step = parameter_step(&dv.su, &dv.sv, dx)?;
+                [params[0] + step[0], params[1] + step[1]]
+            }
         };
         let uv = self.region.wrap(uv);
         if !(uv[0].is_finite() && uv[1].is_finite()) || !self.contains(uv) {

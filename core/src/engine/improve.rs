@@ -191,23 +191,7 @@ struct Incidence {
 
 impl Incidence {
     fn new(n: usize, tris: &[[usize; 3]]) -> Self {
-        let mut start = vec![0u32; n + 1];
-        for t in tris {
-            for &v in t {
-                start[v + 1] += 1;
-            }
-        }
-        for k in 0..n {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut tri = vec![0u32; start[n] as usize];
-        for (ti, t) in tris.iter().enumerate() {
-            for &v in t {
-                tri[fill[v] as usize] = ti as u32;
-                fill[v] += 1;
-            }
-        }
+        let (start, tri) = super::incidence::node_elements(n, tris, |v| v);
         Incidence {
             start,
             tri,

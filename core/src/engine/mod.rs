@@ -18,6 +18,7 @@ pub mod force;
 pub mod grid;
 pub mod growth;
 pub mod improve;
+pub(crate) mod incidence;
 pub mod odt;
 pub mod placement;
 pub mod polish;

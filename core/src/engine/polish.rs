@@ -41,7 +41,7 @@ use rayon::prelude::*;
 
 use crate::geom::{P3, V3};
 
-use super::sliver::{objective, radius_ratio_of, FACE3, TARGET_Q};
+use super::sliver::{radius_ratio_of, Star, TARGET_Q};
 
 /// Rounds of flips and smoothing after the first pass of [`polish`]. The
 /// caller may ask for fewer: a second round added 0.0014 to the mean on
@@ -222,97 +222,6 @@ fn colour<'a>(
         classes[c as usize].push(v);
     }
     classes
-}
-
-/// Node `v`'s star gathered for [`search`]: per tetrahedron the three
-/// other corners (a, b, c), ordered so that [v, a, b, c] is positive, and
-/// twice the area of the face (a, b, c), which does not move with v.
-///
-/// Why by hand: evaluating the star from the mesh's index arrays (which
-/// corner is v, four loads per tetrahedron) took a third of the polish's
-/// time on case K.
-pub(crate) struct Star {
-    faces: Vec<([P3; 3], f64)>,
-}
-
-impl Star {
-    /// The star of node `v`: the tetrahedra `star` (indices into `tets`),
-    /// in that order.
-    pub(crate) fn gather(pos: &[P3], tets: &[[u32; 4]], star: &[u32], v: usize) -> Star {
-        let faces = star
-            .iter()
-            .map(|&t| {
-                let t = tets[t as usize];
-                let k = t.iter().position(|&x| x as usize == v).unwrap_or(0);
-                // [t_k, face opposite k] is an even permutation of t
-                let f = FACE3[k].map(|i| pos[t[i] as usize]);
-                let a2 = (f[1] - f[0]).cross(&(f[2] - f[0])).norm();
-                (f, a2)
-            })
-            .collect();
-        Star { faces }
-    }
-
-    /// Σ radius ratio with v at `x` ([`super::sliver::radius_ratio`] with the fixed face's
-    /// area reused), and the smallest.
-    fn sum_min(&self, x: &P3) -> (f64, f64) {
-        let (mut s, mut m) = (0.0, f64::INFINITY);
-        for (f, a2) in &self.faces {
-            let (u, v, w) = (f[0] - x, f[1] - x, f[2] - x);
-            let (vw, wu, uv) = (v.cross(&w), w.cross(&u), u.cross(&v));
-            let vol6 = u.dot(&vw);
-            let q = if vol6 == 0.0 {
-                0.0
-            } else {
-                let n = vw * u.norm_squared() + wu * v.norm_squared() + uv * w.norm_squared();
-                let area = 0.5 * (uv.norm() + vw.norm() + wu.norm() + a2);
-                let q = 3.0 * vol6 * vol6 / (area * n.norm());
-                if vol6 > 0.0 {
-                    q
-                } else {
-                    -q
-                }
-            };
-            s += q;
-            m = m.min(q);
-        }
-        (s, m)
-    }
-
-    fn sum(&self, x: &P3) -> f64 {
-        self.sum_min(x).0
-    }
-
-    /// The smallest [`objective`] with v at `x`.
-    fn worst(&self, x: &P3) -> f64 {
-        self.faces
-            .iter()
-            .map(|(f, _)| objective(x, &f[0], &f[1], &f[2]))
-            .fold(f64::INFINITY, f64::min)
-    }
-
-    /// The smallest [`objective`] with v at `x`, or `None` as soon as one
-    /// tetrahedron (in the star's order) is no better than `best`.
-    pub(crate) fn worst_above(&self, x: &P3, best: f64) -> Option<f64> {
-        let mut m = f64::INFINITY;
-        for (f, _) in &self.faces {
-            let q = objective(x, &f[0], &f[1], &f[2]);
-            if q <= best {
-                return None;
-            }
-            m = m.min(q);
-        }
-        Some(m)
-    }
-
-    /// Whether every tetrahedron is positive with v at `x` (exact).
-    pub(crate) fn positive(&self, x: &P3) -> bool {
-        let x = crate::connect3d::c3(x);
-        self.faces.iter().all(|(f, _)| {
-            let [a, b, c] = f.map(|p| crate::connect3d::c3(&p));
-            robust::orient3d(x, a, b, c) < 0.0
-        })
-    }
 }
 
 /// Gradient ascent for node `v`'s position: the best found, or its own.

@@ -589,7 +589,7 @@ pub(super) fn mesh_volume(
             .tets
             .iter()
             .enumerate()
-            .any(|(k, t)| t.iter().all(|&k| fixed(k)) && poor(k));
+            .any(|(ti, t)| t.iter().all(|&k| fixed(k)) && poor(ti));
         if frac > BCC_MAX_BAD || locked || conn.removed > 0 {
             return redo_from_fcc(model, vi, requested, opts, mesh, node_d, timings, frac);
         }
