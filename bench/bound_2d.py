@@ -35,6 +35,13 @@ def radius_ratios(p, t):
 
 def sum_and_gradient(p, t):
     """-sum(q) and its gradient with respect to every node position."""
+    q, g = weighted_q_gradient(p, t)
+    return -q.sum(), -g
+
+
+def weighted_q_gradient(p, t, w=None):
+    """The radius ratios q and the gradient of sum(w * q) (w per triangle,
+    1 if None) with respect to every node position."""
     ea, eb, ec = p[t[:, 1]] - p[t[:, 2]], p[t[:, 0]] - p[t[:, 2]], p[t[:, 0]] - p[t[:, 1]]
     a, b, c = (np.linalg.norm(e, axis=1) for e in (ea, eb, ec))
     x1, x2, x3 = b + c - a, c + a - b, a + b - c
@@ -46,9 +53,11 @@ def sum_and_gradient(p, t):
     g = np.zeros_like(p)
     for dq, e, (i, j) in ((dqa, ea / a[:, None], (1, 2)), (dqb, eb / b[:, None], (0, 2)),
                           (dqc, ec / c[:, None], (0, 1))):
+        if w is not None:
+            dq = w * dq
         np.add.at(g, t[:, i], dq[:, None] * e)
         np.add.at(g, t[:, j], -dq[:, None] * e)
-    return -q.sum(), -g
+    return q, g
 
 
 def orient(p, a, b, c):

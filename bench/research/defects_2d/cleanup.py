@@ -14,19 +14,8 @@ def energy_grad(p, t, case, need_grad=True):
     if WBAND:
         fb, gb = band_pen(p, t, case, w=WBAND); F += fb
     if not need_grad: return F
-    wts = 1 + 2 * WMIN * h
-    ea, eb, ec = p[t[:, 1]] - p[t[:, 2]], p[t[:, 0]] - p[t[:, 2]], p[t[:, 0]] - p[t[:, 1]]
-    a, b, c = (np.linalg.norm(e, axis=1) for e in (ea, eb, ec))
-    x1, x2, x3 = b + c - a, c + a - b, a + b - c
-    den = a * b * c
-    dqa = (-x2 * x3 + x1 * x3 + x1 * x2) / den - q / a
-    dqb = (x2 * x3 - x1 * x3 + x1 * x2) / den - q / b
-    dqc = (x2 * x3 + x1 * x3 - x1 * x2) / den - q / c
-    g = np.zeros_like(p)
-    for dq, e, (i, j) in ((dqa, ea / a[:, None], (1, 2)), (dqb, eb / b[:, None], (0, 2)),
-                          (dqc, ec / c[:, None], (0, 1))):
-        np.add.at(g, t[:, i], -(wts * dq)[:, None] * e)
-        np.add.at(g, t[:, j], (wts * dq)[:, None] * e)
+    # d/dx of sum(1 - q) + WMIN*sum(h^2) = -sum((1 + 2 WMIN h) dq/dx)
+    g = -weighted_q_gradient(p, t, 1 + 2 * WMIN * h)[1]
     if WBAND: g += gb
     return F, g
 

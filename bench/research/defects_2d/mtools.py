@@ -1,11 +1,17 @@
 """Common tools: load/write meshes, q, band, valence, global sum(q) optimisation, flips, CDT."""
 import os
+import sys
 import numpy as np, meshio, triangle as tr, subprocess, json
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
 # bench/run_2d.py's meshes (run it first: python3 bench/run_2d.py --cases B,C --reps 1)
 MESHES = os.path.join(os.environ.get("BUBBLEMESH_BENCH_OUT", os.path.join(ROOT, "bench", "out")), "meshes")
 MESHCHECK = os.path.join(ROOT, "..", "shared", "meshkit", "meshcheck.py")
+
+
+# the radius ratio and its gradient: bench/bound_2d.py's
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+from bound_2d import radius_ratios as qvals, sum_and_gradient, weighted_q_gradient  # noqa: E402
 
 
 def engine_mesh(case):
@@ -48,28 +54,6 @@ def orient_tris(p, t):
 def signed_area(p, t):
     a = p[t[:, 1]] - p[t[:, 0]]; b = p[t[:, 2]] - p[t[:, 0]]
     return 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-
-def qvals(p, t):
-    a = np.linalg.norm(p[t[:, 1]] - p[t[:, 2]], axis=1)
-    b = np.linalg.norm(p[t[:, 0]] - p[t[:, 2]], axis=1)
-    c = np.linalg.norm(p[t[:, 0]] - p[t[:, 1]], axis=1)
-    return (b + c - a) * (c + a - b) * (a + b - c) / (a * b * c)
-
-def sum_and_gradient(p, t):
-    ea, eb, ec = p[t[:, 1]] - p[t[:, 2]], p[t[:, 0]] - p[t[:, 2]], p[t[:, 0]] - p[t[:, 1]]
-    a, b, c = (np.linalg.norm(e, axis=1) for e in (ea, eb, ec))
-    x1, x2, x3 = b + c - a, c + a - b, a + b - c
-    den = a * b * c
-    q = x1 * x2 * x3 / den
-    dqa = (-x2 * x3 + x1 * x3 + x1 * x2) / den - q / a
-    dqb = (x2 * x3 - x1 * x3 + x1 * x2) / den - q / b
-    dqc = (x2 * x3 + x1 * x3 - x1 * x2) / den - q / c
-    g = np.zeros_like(p)
-    for dq, e, (i, j) in ((dqa, ea / a[:, None], (1, 2)), (dqb, eb / b[:, None], (0, 2)),
-                          (dqc, ec / c[:, None], (0, 1))):
-        np.add.at(g, t[:, i], dq[:, None] * e)
-        np.add.at(g, t[:, j], -dq[:, None] * e)
-    return -q.sum(), -g
 
 def band_pen(p, t, case, lo=0.76, hi=1.32, w=1.0):
     """penalty w*sum(hinge(log(L/d) outside [log lo, log hi])^2) and gradient (d frozen at midpoint)"""
