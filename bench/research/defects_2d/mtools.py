@@ -11,7 +11,8 @@ MESHCHECK = os.path.join(ROOT, "..", "shared", "meshkit", "meshcheck.py")
 
 # the radius ratio and its gradient: bench/bound_2d.py's
 sys.path.insert(0, os.path.join(ROOT, "bench"))
-from bound_2d import radius_ratios as qvals, sum_and_gradient, weighted_q_gradient  # noqa: E402
+from bound_2d import (  # noqa: E402
+    flip_sweeps, radius_ratios as qvals, sum_and_gradient, weighted_q_gradient)
 
 
 def engine_mesh(case):
@@ -92,30 +93,10 @@ def optimize(p, t, case, wband=0.0, maxiter=3000, fr=None):
         print("  WARNING: optimisation inverted", (signed_area(pp, t) <= 0).sum(), "triangles")
     return pp
 
-def flips(p, t, bnodes=None, crit="q"):
-    """q-improving flips (sum of the two q) until none; returns t, count"""
-    t = [list(x) for x in t]
-    def q1(tri): return qvals(p, np.array([tri]))[0]
-    def orient(a, b, c):
-        return (p[b, 0] - p[a, 0]) * (p[c, 1] - p[a, 1]) - (p[b, 1] - p[a, 1]) * (p[c, 0] - p[a, 0])
-    total = 0
-    while True:
-        edges = {}
-        for ti, tri in enumerate(t):
-            for k in range(3):
-                edges.setdefault(tuple(sorted((tri[k], tri[(k + 1) % 3]))), []).append(ti)
-        done, nf = set(), 0
-        for (a, b), ts in edges.items():
-            if len(ts) != 2 or ts[0] in done or ts[1] in done: continue
-            t1, t2 = t[ts[0]], t[ts[1]]
-            c = next(v for v in t1 if v not in (a, b)); d = next(v for v in t2 if v not in (a, b))
-            if orient(c, d, a) * orient(c, d, b) >= 0: continue
-            n1 = [c, d, a] if orient(c, d, a) > 0 else [d, c, a]
-            n2 = [c, d, b] if orient(c, d, b) > 0 else [d, c, b]
-            if q1(n1) + q1(n2) > q1(t1) + q1(t2) + 1e-12:
-                t[ts[0]], t[ts[1]] = n1, n2; done.update(ts); nf += 1
-        total += nf
-        if nf == 0: return orient_tris(p, np.array(t)), total
+def flips(p, t):
+    """q-improving flips (sum of the two q) until none: bound_2d's sweeps; returns t, count"""
+    t, n = flip_sweeps(p, t)
+    return orient_tris(p, t), n
 
 def cdt(points, segments, holes):
     A = dict(vertices=points, segments=np.asarray(segments))
