@@ -403,31 +403,8 @@ fn sweep(
 mod tests {
     use super::*;
     use crate::engine::polish::tests::{
-        assert_positive, jittered_lattice, mean_q, worst_objective,
+        assert_positive, boundary_faces, jittered_lattice, mean_q, volume, worst_objective,
     };
-    use std::collections::HashMap;
-
-    /// Faces (sorted corners) -> how many tetrahedra hold them.
-    fn face_count(tets: &[[u32; 4]]) -> HashMap<[u32; 3], usize> {
-        let mut m = HashMap::new();
-        for t in tets {
-            for f in FACE3 {
-                let mut k = f.map(|i| t[i]);
-                k.sort();
-                *m.entry(k).or_insert(0) += 1;
-            }
-        }
-        m
-    }
-
-    fn volume(pos: &[P3], tets: &[[u32; 4]]) -> f64 {
-        tets.iter()
-            .map(|t| {
-                let [a, b, c, d] = t.map(|k| pos[k as usize]);
-                (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
-            })
-            .sum()
-    }
 
     /// A mean-raising sweep on a jittered lattice: the mean rises, and the
     /// result is still a tetrahedralization of the same box with the same
@@ -445,18 +422,7 @@ mod tests {
         let m1 = mean_q(&pos, &tets);
         assert!(m1 > m0 + 0.01, "mean {m0} -> {m1}");
         assert_positive(&pos, &tets);
-        let boundary = |tets: &[[u32; 4]]| {
-            let fc = face_count(tets);
-            assert!(fc.values().all(|&c| c == 1 || c == 2));
-            let mut b: Vec<[u32; 3]> = fc
-                .into_iter()
-                .filter(|&(_, c)| c == 1)
-                .map(|(f, _)| f)
-                .collect();
-            b.sort();
-            b
-        };
-        assert_eq!(boundary(&tets0), boundary(&tets));
+        assert_eq!(boundary_faces(&tets0), boundary_faces(&tets));
         assert!((volume(&pos, &tets) - volume(&pos, &tets0)).abs() < 1e-9);
         assert!(worst_objective(&pos, &tets) >= worst_objective(&pos, &tets0).min(TARGET_Q));
     }

@@ -323,6 +323,40 @@ pub(crate) mod tests {
         }
     }
 
+    /// The summed (signed) volume of `tets`.
+    pub(crate) fn volume(pos: &[P3], tets: &[[u32; 4]]) -> f64 {
+        tets.iter()
+            .map(|t| {
+                let [a, b, c, d] = t.map(|k| pos[k as usize]);
+                (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
+            })
+            .sum()
+    }
+
+    /// The faces (sorted corners) held by one tetrahedron, sorted; asserts
+    /// that every face is held by one or two (a conforming mesh).
+    pub(crate) fn boundary_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+        let mut m = std::collections::HashMap::new();
+        for t in tets {
+            for f in super::super::sliver::FACE3 {
+                let mut k = f.map(|i| t[i]);
+                k.sort_unstable();
+                *m.entry(k).or_insert(0usize) += 1;
+            }
+        }
+        assert!(
+            m.values().all(|&c| c == 1 || c == 2),
+            "a face held by three tetrahedra"
+        );
+        let mut b: Vec<[u32; 3]> = m
+            .into_iter()
+            .filter(|&(_, c)| c == 1)
+            .map(|(f, _)| f)
+            .collect();
+        b.sort_unstable();
+        b
+    }
+
     /// A jittered cubic lattice: the pass must raise the mean radius
     /// ratio, move only free nodes, keep every tetrahedron positive and the
     /// worst objective no lower than before (it is below TARGET_Q here).

@@ -697,8 +697,9 @@ mod tests {
     /// volume and boundary faces, a higher worst objective.
     #[test]
     fn improve_near_bad_stays_near_the_bad_tetrahedra() {
-        use crate::engine::polish::tests::{assert_positive, worst_objective};
-        use std::collections::HashMap;
+        use crate::engine::polish::tests::{
+            assert_positive, boundary_faces, volume, worst_objective,
+        };
         // a BCC lattice (cube corners and centres, Delaunay tetrahedra all
         // of radius ratio 0.95) with one node pushed towards a neighbour
         let k = 7;
@@ -787,37 +788,8 @@ mod tests {
                 "a tetrahedron away from the bad ones changed"
             );
         }
-        let volume = |pos: &[P3], tets: &[[u32; 4]]| -> f64 {
-            tets.iter()
-                .map(|t| {
-                    let [a, b, c, d] = t.map(|k| pos[k as usize]);
-                    (b - a).dot(&(c - a).cross(&(d - a))) / 6.0
-                })
-                .sum()
-        };
         assert!((volume(&pos, &tets) - volume(&pos0, &tets0)).abs() < 1e-9);
-        let boundary = |tets: &[[u32; 4]]| {
-            let mut m: HashMap<[u32; 3], usize> = HashMap::new();
-            for t in tets {
-                for f in FACE3 {
-                    let mut k = f.map(|i| t[i]);
-                    k.sort_unstable();
-                    *m.entry(k).or_insert(0) += 1;
-                }
-            }
-            assert!(
-                m.values().all(|&c| c <= 2),
-                "a face held by three tetrahedra"
-            );
-            let mut b: Vec<[u32; 3]> = m
-                .into_iter()
-                .filter(|&(_, c)| c == 1)
-                .map(|(f, _)| f)
-                .collect();
-            b.sort_unstable();
-            b
-        };
-        assert_eq!(boundary(&tets0), boundary(&tets));
+        assert_eq!(boundary_faces(&tets0), boundary_faces(&tets));
         // nothing left to do on a mesh without bad tetrahedra
         let (mut p2, mut t2) = (pos0.clone(), tets0.clone());
         t2.retain(|t| objective_of(&p2, t) >= TARGET_Q);
