@@ -16,14 +16,12 @@
 //! mean-raising flips ([`super::flip::raise_mean`]) and another pass. On I
 //! that gives 0.903 (passes alone 0.8872), on H 0.913 (0.906), on J 0.915
 //! (0.909), for one more pass's time. After a BCC start the volume asks
-//! for one round only (see [`FLIP_ROUNDS`]), and the pass after its flips
-//! searches only the nodes they touched ([`Resmooth::Touched`]).
+//! for the first pass only (see [`FLIP_ROUNDS`]).
 //!
 //! Cost (case K, 2.75 M tetrahedra, one thread): only nodes with a star
-//! tetrahedron below [`SKIP_Q`] are coloured and searched (72k of 443k
-//! free nodes), each over its star gathered once ([`Star`]); the first pass
-//! takes about 1.3 s, the flip sweep about 1 s and the pass after it
-//! (30k touched nodes) 0.4 s.
+//! tetrahedron below [`SKIP_Q`] are coloured and searched (about 70k of
+//! 443k free nodes), each over its star gathered once ([`Star`]): about
+//! 1.1 s.
 //!
 //! Invariants kept: every tetrahedron of a moved node's star stays
 //! positively oriented (exact `orient3d`), so no node leaves its volume and
@@ -44,9 +42,12 @@ use crate::geom::{P3, V3};
 use super::sliver::{radius_ratio_of, Star, TARGET_Q};
 
 /// Rounds of flips and smoothing after the first pass of [`polish`]. The
-/// caller may ask for fewer: a second round added 0.0014 to the mean on
-/// case I (FCC start), but only 0.0006 on H and J and 0.0002 on K (BCC
-/// starts, whose interior needs nothing), for 12 % of K's time.
+/// caller may ask for fewer. After an FCC start a second round added
+/// 0.0014 to the mean on case I. After a BCC start, whose interior needs
+/// nothing, the volume asks for none: since the sliver pass flips before
+/// it smooths ([`super::sliver::improve`]), one round added 0.0001 to the
+/// mean on K (857 flips, about 1 s of its time), 0.0008 on H and 0.0010
+/// on J (session 9; minimum and dihedral angles unchanged).
 pub const FLIP_ROUNDS: usize = 2;
 /// Flips are tried around tetrahedra whose objective is below this (0.8
 /// and 1.0 made about 10 % more flips for the same mean on case I, at 4×
@@ -64,21 +65,6 @@ const ASCENT_STEPS: usize = 4;
 /// backtracking gives up, in units of the node's spacing.
 const FIRST_STEP: f64 = 0.05;
 const LAST_STEP: f64 = 0.01;
-
-/// Which nodes [`polish`] searches again after a round of flips.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Resmooth {
-    /// Every node with a star tetrahedron below [`SKIP_Q`] (as the first
-    /// pass): after an FCC start, where the whole interior was relaxed and
-    /// a second full pass still gains (case I: mean 0.9027 against 0.9005
-    /// with `Touched`).
-    All,
-    /// Only the nodes whose star the flips changed: after a BCC start,
-    /// where the first pass already settled the boundary layer (case K:
-    /// 30k nodes instead of 72k, 0.4 s instead of 2.3 s, mean 0.9408
-    /// against 0.9411).
-    Touched,
-}
 
 /// What [`polish`] did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -99,7 +85,6 @@ pub fn polish(
     tets: &mut Vec<[u32; 4]>,
     d: &[f64],
     rounds: usize,
-    after_flips: Resmooth,
 ) -> PolishStats {
     let mut stats = PolishStats {
         moves: smooth(pos, movable, tets, d, 1),
@@ -108,16 +93,12 @@ pub fn polish(
     for _ in 0..rounds.min(FLIP_ROUNDS) {
         let mu =
             tets.iter().map(|t| radius_ratio_of(pos, t)).sum::<f64>() / tets.len().max(1) as f64;
-        let (flips, touched) = super::flip::raise_mean(pos, tets, mu, FLIP_BELOW);
+        let flips = super::flip::raise_mean(pos, tets, mu, FLIP_BELOW);
         stats.flips += flips;
         if flips == 0 {
             break;
         }
-        let among = match after_flips {
-            Resmooth::All => None,
-            Resmooth::Touched => Some(&touched[..]),
-        };
-        stats.moves += smooth_among(pos, movable, tets, d, 1, among);
+        stats.moves += smooth(pos, movable, tets, d, 1);
     }
     stats
 }
@@ -132,18 +113,6 @@ pub fn smooth(
     d: &[f64],
     passes: usize,
 ) -> usize {
-    smooth_among(pos, movable, tets, d, passes, None)
-}
-
-/// [`smooth`], searching only the nodes of `among` (sorted), if given.
-fn smooth_among(
-    pos: &mut [P3],
-    movable: &[bool],
-    tets: &[[u32; 4]],
-    d: &[f64],
-    passes: usize,
-    among: Option<&[u32]>,
-) -> usize {
     let n = pos.len();
     // node -> tetrahedra (CSR)
     let (start, inc) = super::sliver::node_tets(n, tets);
@@ -154,23 +123,10 @@ fn smooth_among(
         // searched (search() would return the others unmoved), so only they
         // are coloured: on case K a sixth of the free nodes
         let mut wanted = vec![false; n];
-        match among {
-            None => {
-                for t in tets {
-                    if radius_ratio_of(pos, t) < SKIP_Q {
-                        for &v in t {
-                            wanted[v as usize] = movable[v as usize];
-                        }
-                    }
-                }
-            }
-            Some(nodes) => {
-                for &v in nodes {
-                    let v = v as usize;
-                    wanted[v] = movable[v]
-                        && star(v)
-                            .iter()
-                            .any(|&t| radius_ratio_of(pos, &tets[t as usize]) < SKIP_Q);
+        for t in tets {
+            if radius_ratio_of(pos, t) < SKIP_Q {
+                for &v in t {
+                    wanted[v as usize] = movable[v as usize];
                 }
             }
         }
@@ -389,14 +345,7 @@ pub(crate) mod tests {
         let (mut pos_s, tets_s) = (pos0.clone(), tets0.clone());
         smooth(&mut pos_s, &movable, &tets_s, &d, 1 + FLIP_ROUNDS);
         let (mut pos_p, mut tets_p) = (pos0.clone(), tets0.clone());
-        let stats = polish(
-            &mut pos_p,
-            &movable,
-            &mut tets_p,
-            &d,
-            FLIP_ROUNDS,
-            Resmooth::All,
-        );
+        let stats = polish(&mut pos_p, &movable, &mut tets_p, &d, FLIP_ROUNDS);
         let (ms, mp) = (mean_q(&pos_s, &tets_s), mean_q(&pos_p, &tets_p));
         assert!(stats.flips > 0);
         assert!(mp > ms + 0.05, "smoothing {ms}, polish {mp} ({stats:?})");

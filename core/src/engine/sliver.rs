@@ -4,12 +4,15 @@
 //! A Delaunay tetrahedralization of well-packed bubbles still holds
 //! *slivers*: four nearly cospherical, nearly coplanar points make a flat
 //! tetrahedron with a good circumsphere but a tiny volume. They are removed
-//! here by moving their free corners: a pattern search over small moves
+//! here by flips that raise the worst tetrahedron they touch
+//! ([`super::flip::raise_worst`]), then by moving the free corners of
+//! what the flips leave: a pattern search over small moves
 //! (at most [`MAX_MOVE`]·d in total) that raises the worst radius ratio of
 //! the node's star, accepted only when every tetrahedron of the star stays
-//! positively oriented (exact `orient3d`). Topology is unchanged, so the
-//! boundary stays exactly the faces' meshes and no node leaves its volume
-//! (a node inside a valid star cannot cross the star's outer faces).
+//! positively oriented (exact `orient3d`). Neither touches a boundary
+//! triangle, so the boundary stays exactly the faces' meshes, and no node
+//! leaves its volume (a node inside a valid star cannot cross the star's
+//! outer faces).
 
 use crate::geom::{P3, V3};
 
@@ -18,6 +21,8 @@ use crate::geom::{P3, V3};
 pub const TARGET_Q: f64 = 0.55;
 /// Rounds of the pattern search.
 pub const ROUNDS: usize = 4;
+/// Rounds of flips and pattern search in [`improve`].
+pub const ROUNDS_FLIP_SMOOTH: usize = 3;
 /// Largest move of a node per smoothing pass, in units of its spacing.
 pub const MAX_MOVE: f64 = 0.35;
 
@@ -377,21 +382,26 @@ pub fn improve_with(
     mut qs: Vec<f64>,
 ) -> SliverStats {
     debug_assert_eq!(qs.len(), tets.len());
-    let mut stats = SliverStats::default();
-    let mut before = None;
-    for _ in 0..2 {
-        let s = smooth(pos, movable, tets, d, &mut qs);
-        before.get_or_insert((s.bad_before, s.min_q_before));
-        stats.moves += s.moves;
+    let mut stats = SliverStats {
+        bad_before: qs.iter().filter(|&&q| q < TARGET_Q).count(),
+        min_q_before: qs.iter().cloned().fold(1.0, f64::min),
+        ..Default::default()
+    };
+    // flips first, then the node search on what they leave: a flip round
+    // costs a table of the mesh, a node search some fifty star evaluations
+    // per node. Measured on case K (BCC, one thread): the flips take 25,296
+    // bad tetrahedra to 3,707 in 1.0 s and the pass takes 2.6 s instead of
+    // 3.0 s (smoothing first: 1.8 s for the first search alone), with
+    // min radius ratio 0.550 instead of 0.533 and no tetrahedron left
+    // below the target (10 before); cases H, I, J: the same worst
+    // tetrahedra or better, means within 0.0004.
+    for _ in 0..ROUNDS_FLIP_SMOOTH {
         stats.flips += super::flip::raise_worst(pos, tets, &mut qs);
+        let s = smooth(pos, movable, tets, d, &mut qs);
+        stats.moves += s.moves;
+        stats.bad_after = s.bad_after;
+        stats.min_q_after = s.min_q_after;
     }
-    let s = smooth(pos, movable, tets, d, &mut qs);
-    stats.moves += s.moves;
-    let before = before.unwrap_or((s.bad_before, s.min_q_before));
-    stats.bad_before = before.0;
-    stats.min_q_before = before.1;
-    stats.bad_after = s.bad_after;
-    stats.min_q_after = s.min_q_after;
     stats
 }
 

@@ -667,19 +667,24 @@ pub(super) fn mesh_volume(
     rep.sliver_s = t.elapsed().as_secs_f64();
     if !opts.fast {
         let t = Instant::now();
-        // one round of flips suffices after BCC (see FLIP_ROUNDS)
-        // and after BCC only the nodes the flips touched are searched again
-        // (see polish::Resmooth)
-        let (rounds, again) = match lattice {
-            Lattice::Bcc => (1, super::polish::Resmooth::Touched),
-            Lattice::Fcc => (super::polish::FLIP_ROUNDS, super::polish::Resmooth::All),
+        // no flip round after BCC (see FLIP_ROUNDS)
+        let rounds = match lattice {
+            Lattice::Bcc => 0,
+            Lattice::Fcc => super::polish::FLIP_ROUNDS,
         };
-        let stats = super::polish::polish(&mut pos, &movable, &mut tets, &d, rounds, again);
+        let stats = super::polish::polish(&mut pos, &movable, &mut tets, &d, rounds);
         rep.polish_moves = stats.moves;
         rep.polish_flips = stats.flips;
         rep.polish_s = t.elapsed().as_secs_f64();
-        // the polish's flips give the sliver pass new room
-        let s = super::sliver::improve_near_bad(&mut pos, &movable, &mut tets, &d);
+        // the polish's flips give the sliver pass new room; where it left
+        // nothing below TARGET_Q, the polish made nothing so (its moves and
+        // flips keep every star's worst above min(before, TARGET_Q)): that
+        // saves a scan of the mesh
+        let s = if rep.slivers.bad_after > 0 {
+            super::sliver::improve_near_bad(&mut pos, &movable, &mut tets, &d)
+        } else {
+            None
+        };
         if let Some((s, still_bad)) = s {
             rep.slivers.moves += s.moves;
             rep.slivers.flips += s.flips;
