@@ -220,21 +220,19 @@ pub fn connect_volume(
             continue;
         }
         let inside = flood_inside(pts, n_fixed, &tets, &dt.neighbours, boundary, &bset)?;
-        let mut out = Vec::with_capacity(inside.iter().filter(|&&b| b).count());
-        for (t, &ins) in tets.iter().zip(&inside) {
-            if !ins {
-                continue;
-            }
-            let [a, b, c, d] = t.map(|k| pts[k as usize]);
-            // our convention: det(b−a, c−a, d−a) > 0; robust's orient3d is
-            // positive when d is below the plane of a, b, c
-            let o = robust::orient3d(c3(&a), c3(&b), c3(&c), c3(&d));
-            out.push(if o < 0.0 {
-                *t
-            } else {
-                [t[0], t[2], t[1], t[3]]
-            });
-        }
+        // the kernel's tetrahedra are positive in our convention already
+        // (det(b−a, c−a, d−a) > 0, its documented invariant, checked
+        // exactly there), so they are kept as they are
+        let out: Vec<[u32; 4]> = tets
+            .iter()
+            .zip(&inside)
+            .filter(|(_, &ins)| ins)
+            .map(|(t, _)| *t)
+            .collect();
+        debug_assert!(out.iter().all(|t| {
+            let [a, b, c, d] = t.map(|k| c3(&pts[k as usize]));
+            robust::orient3d(a, b, c, d) < 0.0
+        }));
         // in the order of their lowest node: the kernel leaves them in the
         // order its cavities freed slots, and every later pass (node ->
         // tetrahedra tables, stars, flips) walks them by node; sorted, those

@@ -952,9 +952,21 @@ fn mesh_face(
     // stage 2
     if !opts.fast {
         let t2 = Instant::now();
+        // a uniformly spaced face that only bounds a volume stops earlier
+        // (see system::PLATEAU_BOUNDARY)
+        let bounds_volume = opts.dim.unwrap_or(model.dim()) >= 3
+            && model.volumes.iter().any(|v| v.faces.contains(&(fi as u32)));
+        let settings = if bounds_volume && spacing.constant().is_some() {
+            system::RelaxSettings {
+                plateau: opts.relax.plateau.max(system::PLATEAU_BOUNDARY),
+                ..opts.relax
+            }
+        } else {
+            opts.relax
+        };
         let stats = sys.relax(
-            &opts.relax,
-            relax_progress(&opts.progress, fe, opts.relax.max_steps),
+            &settings,
+            relax_progress(&opts.progress, fe, settings.max_steps),
         )?;
         fr.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();

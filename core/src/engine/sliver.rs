@@ -395,7 +395,12 @@ pub fn improve_with(
     // min radius ratio 0.550 instead of 0.533 and no tetrahedron left
     // below the target (10 before); cases H, I, J: the same worst
     // tetrahedra or better, means within 0.0004.
+    stats.bad_after = stats.bad_before;
+    stats.min_q_after = stats.min_q_before;
     for _ in 0..ROUNDS_FLIP_SMOOTH {
+        if stats.bad_after == 0 {
+            break;
+        }
         stats.flips += super::flip::raise_worst(pos, tets, &mut qs);
         let s = smooth(pos, movable, tets, d, &mut qs);
         stats.moves += s.moves;
