@@ -33,8 +33,8 @@
 //!   tetrahedra in node order and the local passes: 9.1 s, mean 0.941,
 //!   1.76×; session 9, with the sliver pass flipping before it smooths,
 //!   no flip round in the polish after BCC and the faces' looser plateau
-//!   ([`super::system::PLATEAU_BOUNDARY`]): 7.7–8.0 s, q 0.550 / 0.940,
-//!   1.02–1.29× in three runs). Where BCC meets a thin part's boundary unrelaxed it is
+//!   ([`super::system::PLATEAU_BOUNDARY`]): 7.7–8.4 s, q 0.550 / 0.940,
+//!   1.02–1.30× in three runs). Where BCC meets a thin part's boundary unrelaxed it is
 //!   worse, so it is given up for FCC when its first tetrahedralization
 //!   looks poor ([`BCC_MAX_BAD`], locked slivers, recovery removals) or
 //!   its result is ([`BCC_FLOOR_RR`]). The thesis's FCC path stays available
