@@ -520,8 +520,13 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
     )?;
     let write_s = t_write.elapsed().as_secs_f64();
     if !a.quiet {
+        let lattice = if report.timings.lattice_s > 0.0005 {
+            format!(", conformal lattice {:.3} s", report.timings.lattice_s)
+        } else {
+            String::new()
+        };
         eprintln!(
-            "meshed {} in {:.3} s (stage 1 {:.3} s, stage 2 {:.3} s, connection {:.3} s); wrote {} in {:.3} s",
+            "meshed {} in {:.3} s (stage 1 {:.3} s, stage 2 {:.3} s, connection {:.3} s{lattice}); wrote {} in {:.3} s",
             a.input.display(),
             report.timings.total_s,
             report.timings.stage1_s,

@@ -61,19 +61,21 @@ fn hexagon_is_the_perfect_lattice() {
 fn benchmark_cases_keep_quality_and_spacing() {
     let cases = [
         (common::square(), "0.02", 0.99, 0.70),
+        // the graded cases B and C at issue 2's targets (mean 0.99, min 0.80):
+        // packed bubbles alone gave 0.9852 / 0.900 and 0.9823 / 0.818, the
+        // conformal-lattice start (engine::conformal) 0.9930 / 0.887 and
+        // 0.9928 / 0.894
         (
             common::square(),
             "0.01 + 0.2*((x-0.5)^2 + (y-0.5)^2)",
-            // 0.9818 before the mean lift of engine::improve, 0.9852 with it
-            0.984,
-            0.65,
+            0.99,
+            0.80,
         ),
         (
             common::plate_two_holes(),
             "0.02 + 0.1*max(min(sqrt((x-0.5)^2+(y-0.5)^2), sqrt((x-1.5)^2+(y-0.5)^2)) - 0.2, 0)",
-            // 0.978 before the mean lift, 0.982 with it
-            0.981,
-            0.6,
+            0.99,
+            0.80,
         ),
     ];
     for (model, expr, q_mean_min, q_min_min) in cases {
@@ -91,6 +93,48 @@ fn benchmark_cases_keep_quality_and_spacing() {
         );
         assert!((mean - 1.0).abs() < 0.05, "{expr}: mean L/d {mean}");
     }
+}
+
+/// Case C's holes have a spacing proportional to the distance from their
+/// centre (a flat metric in log-polar coordinates): the conformal lattice
+/// puts rings of as many nodes as each hole has around it. Before its
+/// columns followed the hole's nodes (`conformal::align_to_hole`) and the
+/// flattening was exact (`conformal::newton`), a ring lost a node where the
+/// layout closed: a hole node in only two triangles beside a seven-valent
+/// node, and q 0.75 there.
+#[test]
+fn hole_rings_close_without_a_seam() {
+    let model = common::plate_two_holes();
+    let s = Expr::parse(
+        "0.02 + 0.1*max(min(sqrt((x-0.5)^2+(y-0.5)^2), sqrt((x-1.5)^2+(y-0.5)^2)) - 0.2, 0)",
+    )
+    .unwrap();
+    let (mesh, report) = mesh_model(&model, &s, &Options::default()).unwrap();
+    let cones = report.faces[0]
+        .lattice_cones
+        .expect("the face is meshed from the lattice");
+    assert!(cones.0 + cones.1 <= 10, "cones {cones:?}");
+    let mut tris_at = vec![0usize; mesh.nodes.len()];
+    for t in &mesh.triangles {
+        for &v in &t.nodes {
+            tris_at[v as usize] += 1;
+        }
+    }
+    let mut on_holes = 0;
+    for (i, n) in mesh.nodes.iter().enumerate() {
+        let r = ((n.pos.x - 0.5).hypot(n.pos.y - 0.5)).min((n.pos.x - 1.5).hypot(n.pos.y - 0.5));
+        if (r - 0.2).abs() < 1e-9 {
+            on_holes += 1;
+            assert!(
+                tris_at[i] >= 3,
+                "hole node at ({}, {}) is in {} triangles",
+                n.pos.x,
+                n.pos.y,
+                tris_at[i]
+            );
+        }
+    }
+    assert!(on_holes > 100, "{on_holes} nodes on the holes");
 }
 
 /// Stage 2 improves on stage 1 (thesis Fig. 5.3).

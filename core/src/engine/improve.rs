@@ -88,13 +88,37 @@ pub fn improve<C: Carrier>(
             break;
         }
     }
-    for lift in [Lift::Worst, Lift::Mean] {
+    for (lift, below) in [(Lift::Worst, LIFT_Q), (Lift::Mean, MEAN_Q)] {
         for _ in 0..rounds {
-            let moved = lift_bubbles(sys, tris, lift)?;
+            let moved = lift_bubbles(sys, tris, lift, below, 0.0)?;
             if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
                 break;
             }
         }
+    }
+    Ok(())
+}
+
+/// More rounds of [`Lift::Mean`] over the bubbles of every triangle below
+/// `below` (with flips after each), for a mesh whose connectivity is already
+/// good, so that only the node positions are left to settle.
+pub fn lift_mean<C: Carrier>(
+    sys: &mut System<'_, C>,
+    tris: &mut [[usize; 3]],
+    constraints: &[[usize; 2]],
+    below: f64,
+    rounds: usize,
+) -> Result<(), MeshError> {
+    let fixed: HashSet<(usize, usize)> = constraints
+        .iter()
+        .map(|e| (e[0].min(e[1]), e[0].max(e[1])))
+        .collect();
+    for _ in 0..rounds {
+        let moved = lift_bubbles(sys, tris, Lift::Mean, below, BAND_WEIGHT)?;
+        if moved.is_empty() {
+            break;
+        }
+        delaunay_flips(sys, tris, &fixed, &moved);
     }
     Ok(())
 }
@@ -284,6 +308,14 @@ pub const LIFT_Q: f64 = 0.9;
 /// raise the sum of the radius ratios around them ([`Lift::Mean`]).
 pub const MEAN_Q: f64 = 0.98;
 
+/// [`lift_mean`] keeps edge lengths L/d inside [BAND_LO, BAND_HI] (well
+/// inside the [1/√2, √2] a mesher is judged by) with a penalty of
+/// BAND_WEIGHT·(log of the excess)² per edge (research: F in
+/// `bench/research/defects_2d/README.md`).
+const BAND_LO: f64 = 0.76;
+const BAND_HI: f64 = 1.32;
+const BAND_WEIGHT: f64 = 10.0;
+
 /// What [`lift_bubbles`] maximises.
 #[derive(Clone, Copy, PartialEq)]
 enum Lift {
@@ -305,11 +337,9 @@ fn lift_bubbles<C: Carrier>(
     sys: &mut System<'_, C>,
     tris: &[[usize; 3]],
     lift: Lift,
+    below: f64,
+    band: f64,
 ) -> Result<Vec<usize>, MeshError> {
-    let below = match lift {
-        Lift::Worst => LIFT_Q,
-        Lift::Mean => MEAN_Q,
-    };
     let n = sys.n();
     let nf = sys.n_fixed;
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); n];
@@ -342,6 +372,16 @@ fn lift_bubbles<C: Carrier>(
                 let q = radius_ratio(&at(t[0]), &at(t[1]), &at(t[2]));
                 w = w.min(q);
                 sum += q;
+                if band > 0.0 {
+                    // each edge at i is in two of its triangles: half weight per triangle
+                    for &j in &t {
+                        if j != i {
+                            let r = ((sys.pos[j] - p).norm() / (0.5 * (sys.d[i] + sys.d[j]))).ln();
+                            let out = (r - BAND_HI.ln()).max(0.0) + (BAND_LO.ln() - r).max(0.0);
+                            sum -= 0.5 * band * out * out;
+                        }
+                    }
+                }
             }
             match lift {
                 Lift::Worst => w,

@@ -11,6 +11,7 @@
 //!
 //! Bubbles of lower dimensions are fixed while the next dimension is packed.
 
+pub mod conformal;
 pub mod constraint;
 pub mod dynamics;
 pub mod flip;
@@ -56,6 +57,13 @@ const CAP_RADIUS: f64 = 5.0;
 /// Rounds of edge relaxation and Delaunay flips after connection
 /// ([`improve`]).
 const IMPROVE_ROUNDS: usize = 6;
+
+/// After a conformal-lattice start (`conformal`), the mean lift runs over
+/// the bubbles of every triangle below this radius ratio, for at most
+/// [`LATTICE_MEAN_ROUNDS`] rounds (cases B and C: 0.99 and 6 rounds gave a
+/// mean 0.001 lower, 0.9999 and 20 rounds the same as this).
+const LATTICE_MEAN_Q: f64 = 0.999;
+const LATTICE_MEAN_ROUNDS: usize = 10;
 
 /// Progress of a long run, for progress bars.
 #[derive(Clone, Copy, Debug)]
@@ -150,6 +158,10 @@ pub struct FaceReport {
     pub triangles: usize,
     /// Stage-2 statistics and energy history (absent with `--fast`).
     pub relax: Option<RelaxStats>,
+    /// Cones (five-, seven-valent) of the conformal lattice when the face's
+    /// mesh was rebuilt from it (graded planar faces; see `conformal`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lattice_cones: Option<(usize, usize)>,
 }
 
 /// Wall-clock seconds per phase.
@@ -159,6 +171,9 @@ pub struct Timings {
     pub stage1_s: f64,
     pub stage2_s: f64,
     pub connect_s: f64,
+    /// The conformal-lattice restart of graded planar faces (flattening,
+    /// its stage 2, connection and improvement; `conformal`).
+    pub lattice_s: f64,
     pub total_s: f64,
 }
 
@@ -1018,6 +1033,29 @@ fn mesh_face(
     if !opts.fast && IMPROVE_ROUNDS > 0 {
         improve::improve(&mut sys, &mut tris, &segments, IMPROVE_ROUNDS)?;
     }
+    // a graded planar face: try the lattice conformal to the spacing (see
+    // `conformal`) and keep it if its mean radius ratio is better
+    let t_lattice = Instant::now();
+    if !opts.fast
+        && surface.is_planar()
+        && spacing.constant().is_none()
+        && isometric(surface, lo, hi)
+    {
+        if let Some((cones, relax)) = conformal_restart(
+            &mut sys,
+            &mut tris,
+            &segments,
+            &boundary,
+            &loop_locals,
+            fe,
+            &opts.relax,
+        )? {
+            fr.lattice_cones = Some(cones);
+            fr.relax = Some(relax);
+        }
+    }
+    let lattice_s = t_lattice.elapsed().as_secs_f64();
+    timings.lattice_s += lattice_s;
     let nf = sys.n_fixed;
     // free bubbles become nodes; one the connection left without a triangle
     // (it sat within half a spacing of another near a singular point) is
@@ -1060,8 +1098,126 @@ fn mesh_face(
                 .into(),
         ));
     }
-    timings.connect_s += t3.elapsed().as_secs_f64();
+    timings.connect_s += t3.elapsed().as_secs_f64() - lattice_s;
     Ok(fr)
+}
+
+/// Whether a planar face's (u,v) is an isometry (unit, orthogonal partials
+/// at the middle of its box; a plane's partials are constant), so that a
+/// spacing is a (u,v) length.
+fn isometric(surface: &dyn crate::geom::Surface, lo: [f64; 2], hi: [f64; 2]) -> bool {
+    let dv = surface.derivs(0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]));
+    (dv.su.norm() - 1.0).abs() < 1e-9
+        && (dv.sv.norm() - 1.0).abs() < 1e-9
+        && dv.su.dot(&dv.sv).abs() < 1e-9
+}
+
+/// Rebuilds a graded planar face from the lattice conformal to its spacing
+/// (`conformal::lattice_seeds` over the current mesh), connected and improved
+/// as the packed bubbles were, and keeps the result if its mean radius ratio
+/// is higher and its edges are in the spacing band [1/√2, √2] as often (or
+/// at least 99.5 % of them); otherwise the packed mesh stays. Returns the cones placed when
+/// the lattice mesh was kept.
+fn conformal_restart<C: constraint::Carrier>(
+    sys: &mut system::System<'_, C>,
+    tris: &mut Vec<[usize; 3]>,
+    segments: &[[usize; 2]],
+    boundary: &[[usize; 2]],
+    loop_locals: &[Vec<usize>],
+    fe: EntityRef,
+    settings: &system::RelaxSettings,
+) -> Result<Option<((usize, usize), system::RelaxStats)>, MeshError> {
+    let nf = sys.n_fixed;
+    let holes: Vec<Vec<usize>> = loop_locals.iter().skip(1).cloned().collect();
+    let bg = conformal::Background {
+        uv: &sys.params,
+        tris,
+        n_fixed: nf,
+        holes: &holes,
+        segments,
+    };
+    let spacing = sys.spacing;
+    let carrier = &sys.carrier;
+    let mut d_uv = |uv: [f64; 2]| {
+        spacing.spacing(&SpacingQuery {
+            point: carrier.point(uv),
+            entity: fe,
+            params: uv,
+        })
+    };
+    let Some(lattice) = conformal::lattice_seeds(&bg, &mut d_uv) else {
+        return Ok(None);
+    };
+    let mean_q = |sys: &system::System<'_, C>, tris: &[[usize; 3]]| {
+        tris.iter()
+            .map(|t| improve::radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]))
+            .sum::<f64>()
+            / tris.len().max(1) as f64
+    };
+    // edges with L/d in [1/√2, √2], d the mean of the ends' spacings
+    let in_band = |sys: &system::System<'_, C>, tris: &[[usize; 3]]| {
+        let (mut inside, mut all) = (0usize, 0usize);
+        for t in tris {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if a < b {
+                    let r = (sys.pos[a] - sys.pos[b]).norm() / (0.5 * (sys.d[a] + sys.d[b]));
+                    all += 1;
+                    inside += (r >= std::f64::consts::FRAC_1_SQRT_2
+                        && r <= std::f64::consts::SQRT_2) as usize;
+                }
+            }
+        }
+        inside as f64 / all.max(1) as f64
+    };
+    let before = (mean_q(sys, tris), in_band(sys, tris));
+    let saved = (
+        sys.pos.split_off(nf),
+        sys.params.split_off(nf),
+        sys.vel.split_off(nf),
+        sys.d.split_off(nf),
+    );
+    for (uv, d) in &lattice.seeds {
+        if sys.carrier.contains(*uv) {
+            let p = sys.carrier.point(*uv);
+            sys.push_free(p, *uv, *d);
+        }
+    }
+    // the lattice is stage 1: stage 2 relaxes it (it keeps its topology and
+    // evens out what the seams between layouts left), then the connection
+    // and improvement as before, and more rounds of the mean lift, as the
+    // lattice leaves only the positions to settle
+    let relax = sys.relax(settings, |_| {})?;
+    let carrier = &sys.carrier;
+    let mut new_tris =
+        connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;
+    improve::improve(sys, &mut new_tris, segments, IMPROVE_ROUNDS)?;
+    improve::lift_mean(
+        sys,
+        &mut new_tris,
+        segments,
+        LATTICE_MEAN_Q,
+        LATTICE_MEAN_ROUNDS,
+    )?;
+    // kept only if better in mean radius ratio and no worse in spacing
+    // (interior edges are counted once or twice, alike in both meshes)
+    if !new_tris.is_empty()
+        && mean_q(sys, &new_tris) > before.0
+        && in_band(sys, &new_tris) >= before.1.min(0.995)
+    {
+        *tris = new_tris;
+        Ok(Some((lattice.cones, relax)))
+    } else {
+        sys.pos.truncate(nf);
+        sys.params.truncate(nf);
+        sys.vel.truncate(nf);
+        sys.d.truncate(nf);
+        sys.pos.extend(saved.0);
+        sys.params.extend(saved.1);
+        sys.vel.extend(saved.2);
+        sys.d.extend(saved.3);
+        Ok(None)
+    }
 }
 
 /// Where lattice growth starts on a face: the stage-1 seed farthest from the

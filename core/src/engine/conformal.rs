@@ -1,0 +1,1127 @@
+//! Seeds from a hexagonal lattice conformal to the spacing, for graded planar
+//! faces (a second start for stage 2's connection; issue 2).
+//!
+//! **Why.** A spacing d(x) is the metric |dx|²/d², whose Gaussian curvature
+//! is d²·Δ log d. A triangular lattice drawn in that metric needs five- and
+//! seven-valent nodes only where the curvature is: ∫Δ log d dA / (π/3) of
+//! them in net. Bubble packing anneals instead into many five/seven *pairs*
+//! (dislocations), and every triangle touching one loses about 0.03 of
+//! radius ratio: on meshkit's graded cases B and C that caps the mean near
+//! 0.985 whatever smoothing follows (`bench/bound_2d.py`). This module
+//! builds the lattice the metric asks for, with few isolated defects
+//! (research and measurements: `bench/research/defects_2d`).
+//!
+//! **How** (a linearised curvature prescription, Ben-Chen, Gotsman & Bunin
+//! 2008, on a background mesh):
+//! 1. the face's bubble mesh refined 1-to-4 is the background; L is its
+//!    cotan Laplacian and u = −log d at its nodes;
+//! 2. φ = u + h with L φ = κ − K_E at the unknown nodes, where K_E is the
+//!    Euclidean curvature (π − angle sum on the boundary, 0 inside); the
+//!    metric e^{2φ}|dx|² is then flat except at cones κ = ±π/3. The outer
+//!    loop is Dirichlet (h = 0, so the spacing on it is exact); hole loops
+//!    are Neumann with zero target turning, so a hole becomes a straight
+//!    line of the layout and lattice rows can run along it;
+//! 3. cones are added greedily at the node of largest |h| among nodes more
+//!    than [`CONE_EXCLUSION`] spacings from every cone, with
+//!    κ = −sign(h)·π/3, until that |h| < [`CONE_TOL`] (one conjugate-gradient
+//!    solve per cone, warm-started);
+//! 4. the triangles are laid out in the plane breadth-first with the lengths
+//!    ℓ_ij·e^{(φ_i+φ_j)/2} (in units of the spacing); turning by ±60° around
+//!    a cone, which a hexagonal lattice does not see;
+//! 5. one unit hexagonal lattice per hole, laid out from that hole, turned so
+//!    that the hole lies on a lattice row through its nodes and scaled so
+//!    that its length is its node count (the annulus then closes on a
+//!    lattice vector); each triangle takes the lattice of the hole nearest in
+//!    triangle hops (one lattice when the face has no hole);
+//! 6. the lattice points inside each laid-out triangle, mapped back by
+//!    barycentric coordinates, are the seeds, less those within
+//!    [`BOUNDARY_GAP`]·d of a boundary or constraint segment and those within
+//!    [`SEED_GAP`]·d of an earlier seed or a fixed node.
+//!
+//! The caller connects the seeds and improves the mesh as it does the
+//! packed bubbles, and keeps whichever mesh has the better mean radius
+//! ratio. Measured on case B: 0.9852 → see the module's closing numbers in
+//! `bench/research/defects_2d/README.md`.
+//!
+//! Units: (u,v) of a planar face whose parametrization is an isometry, so a
+//! spacing is a (u,v) length. Invariants: the input triangles are
+//! counter-clockwise and form a conforming mesh of the face; fixed nodes
+//! come first.
+
+use std::collections::{HashMap, VecDeque};
+
+use nalgebra::Complex;
+
+type C64 = Complex<f64>;
+
+/// Cone placement stops when |h| (log of the lattice's spacing over d) is
+/// below this everywhere outside the cones' neighbourhoods (buildCones.py:
+/// 0.1 placed 74 cones on case B and lost 0.02 of mean; 0.3 too few).
+pub const CONE_TOL: f64 = 0.2;
+/// Radius, in spacings, of a cone's neighbourhood where |h| is not looked at
+/// (the log singularity of a cone is the lattice's business).
+pub const CONE_EXCLUSION: f64 = 3.0;
+/// Cones of a sign beyond what the curvature of that sign asks for.
+pub const CONE_SLACK: usize = 2;
+/// At most this many cones (a face that needs more has a spacing varying on
+/// the scale of the spacing itself, where a lattice is no better).
+pub const MAX_CONES: usize = 400;
+/// Relative residual of the solves while placing cones: h is only compared
+/// with [`CONE_TOL`] there (Newton then solves to 1e-8).
+const GREEDY_TOL: f64 = 1e-5;
+/// A hole stays Neumann (straight in the layout) while the first-order |h|
+/// on it, before any cone, is at most this (case C's holes: 0.42; the same
+/// plate with d = 0.02 + 0.01 x: 1.43 and 1.54).
+const HOLE_TOL: f64 = 0.8;
+/// Newton steps on the curvature at most (it converges quadratically).
+const NEWTON_STEPS: usize = 8;
+/// Seeds closer than this many spacings to the boundary are dropped: the
+/// boundary nodes stand there.
+pub const BOUNDARY_GAP: f64 = 0.4;
+/// Lattice points this far outside a laid-out triangle (in barycentric
+/// coordinates) still count for it: across the edges where the breadth-first
+/// layouts meet, neighbours' images overlap or leave slivers, and a point in
+/// a sliver would be lost (the duplicates are dropped by [`SEED_GAP`]).
+const OVERLAP: f64 = 0.05;
+/// Seeds closer than this many spacings to a kept seed are dropped.
+pub const SEED_GAP: f64 = 0.6;
+/// Background meshes larger than this are not flattened, and the face keeps
+/// its packed mesh: with a Jacobi-preconditioned conjugate gradient per cone
+/// the flattening grows like n^1.5 (case B at a quarter of its spacing,
+/// 95k unknowns: 27 s of cone placement against 10 s of stage 2; at half
+/// its spacing, 24k: 1.8 s against 2 s). A better preconditioner
+/// (incomplete Cholesky, multigrid on the bubble hierarchy) would lift this.
+pub const MAX_BACKGROUND_NODES: usize = 120_000;
+
+/// A face's bubble mesh and spacing.
+pub struct Background<'a> {
+    /// (u,v) of the nodes, fixed ones first.
+    pub uv: &'a [[f64; 2]],
+    /// Counter-clockwise triangles.
+    pub tris: &'a [[usize; 3]],
+    /// Number of fixed nodes (boundary and embedded).
+    pub n_fixed: usize,
+    /// Node loops of the holes (not the outer loop).
+    pub holes: &'a [Vec<usize>],
+    /// Constraint segments (boundary and embedded edges) seeds keep clear of.
+    pub segments: &'a [[usize; 2]],
+}
+
+/// What [`lattice_seeds`] found.
+#[derive(Clone, Debug)]
+pub struct Lattice {
+    /// Seeds in (u,v), with their spacing.
+    pub seeds: Vec<([f64; 2], f64)>,
+    /// Cones placed (positive, negative).
+    pub cones: (usize, usize),
+}
+
+/// Seeds of the lattice conformal to the spacing `d` (a (u,v) length) over
+/// the background mesh; `None` when the face cannot be flattened (no outer
+/// loop to hold the scale, too large, or a solve that does not converge).
+pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) -> Option<Lattice> {
+    let mut mesh = refine(bg);
+    let n = mesh.uv.len();
+    if n > MAX_BACKGROUND_NODES || mesh.tris.is_empty() {
+        return None;
+    }
+    let dn: Vec<f64> = mesh.uv.iter().map(|&p| d(p)).collect();
+    if dn.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
+        return None;
+    }
+    let u: Vec<f64> = dn.iter().map(|&x| -x.ln()).collect();
+
+    let euclid = Metric::new(&mesh, &vec![0.0; n]);
+    // A hole is Neumann (straight in the layout, lattice rows along it) when
+    // the metric makes it close to a closed geodesic: the spacing growing
+    // like the distance from the hole's centre (case C), where the first-
+    // order solution keeps |h| ≤ HOLE_TOL on it. Around any other hole
+    // (a hole in a nearly uniform spacing) straightening it would distort
+    // the scale by e^|h|, far out of band, so it is Dirichlet like the
+    // outer loop.
+    let nholes = bg.holes.len();
+    let (unk, unk_nodes, rows, diag, rhs0, mut h) = loop {
+        // unknowns: interior nodes and Neumann hole nodes; the rest is Dirichlet
+        let mut unk = vec![usize::MAX; n];
+        let mut unk_nodes = Vec::new();
+        for i in 0..n {
+            if !mesh.boundary[i] || mesh.hole_of[i] != usize::MAX {
+                unk[i] = unk_nodes.len();
+                unk_nodes.push(i);
+            }
+        }
+        if unk_nodes.len() == n || unk_nodes.is_empty() {
+            return None; // no Dirichlet node: the scale would be free
+        }
+        // L restricted to the unknowns, and rhs0 = −(L u)_U − K_E
+        let (rows, diag) = euclid.reduced(&unk, &unk_nodes);
+        let rhs0: Vec<f64> = unk_nodes
+            .iter()
+            .map(|&i| {
+                let lu = euclid.diag[i] * u[i]
+                    - euclid.off[i].iter().map(|&(j, w)| w * u[j]).sum::<f64>();
+                -lu - euclid.curvature[i]
+            })
+            .collect();
+        let mut h = vec![0.0; unk_nodes.len()];
+        if !(Spd {
+            rows: &rows,
+            diag: &diag,
+        })
+        .solve(&rhs0, &mut h, GREEDY_TOL)
+        {
+            return None;
+        }
+        let mut worst = vec![0.0f64; nholes];
+        for (m, &i) in unk_nodes.iter().enumerate() {
+            if mesh.hole_of[i] != usize::MAX {
+                worst[mesh.hole_of[i]] = worst[mesh.hole_of[i]].max(h[m].abs());
+            }
+        }
+        let dirichlet: Vec<usize> = (0..nholes).filter(|&k| worst[k] > HOLE_TOL).collect();
+        if dirichlet.is_empty() {
+            break (unk, unk_nodes, rows, diag, rhs0, h);
+        }
+        for x in mesh.hole_of.iter_mut() {
+            if *x != usize::MAX && dirichlet.contains(x) {
+                *x = usize::MAX;
+            }
+        }
+    };
+    let nu = unk_nodes.len();
+    let sys = Spd {
+        rows: &rows,
+        diag: &diag,
+    };
+
+    // cones, greedily
+    let mut kappa = vec![0.0; nu];
+    let mut b = rhs0.clone();
+    // cones go more than CONE_EXCLUSION spacings from every cone (a cone's
+    // own log singularity is the lattice's business) and not on holes
+    let mut far: Vec<bool> = unk_nodes
+        .iter()
+        .map(|&i| mesh.hole_of[i] == usize::MAX)
+        .collect();
+    // at most as many cones of a sign as the curvature of that sign asks
+    // for (κ ≈ L u + K_E to first order), and a few: near a cone the
+    // conformal factor grows like (1/6)·log(1/r), so on a fine background
+    // |h| passes CONE_TOL some spacings from any cone, and more cones would
+    // only chase that in ± pairs, the dislocations this module avoids
+    // (case B at a quarter of its spacing: 400 cones without the budget,
+    // 10 + 2 with it)
+    let (mut budget_pos, mut budget_neg) = {
+        let (mut p, mut q) = (0.0, 0.0);
+        for (m, &i) in unk_nodes.iter().enumerate() {
+            if mesh.hole_of[i] == usize::MAX {
+                let k = rhs0[m] * -1.0; // rhs0 = −(L u) − K_E
+                if k > 0.0 {
+                    p += k
+                } else {
+                    q -= k
+                }
+            }
+        }
+        let third = std::f64::consts::FRAC_PI_3;
+        (
+            (p / third).ceil() as usize + CONE_SLACK,
+            (q / third).ceil() as usize + CONE_SLACK,
+        )
+    };
+    let mut cones = (0usize, 0usize);
+    let (mut pos_ok, mut neg_ok) = (true, true);
+    loop {
+        let k = (0..nu)
+            .filter(|&k| far[k] && if h[k] < 0.0 { pos_ok } else { neg_ok })
+            .max_by(|&a, &c| h[a].abs().total_cmp(&h[c].abs()));
+        let Some(k) = k else { break };
+        if h[k].abs() < CONE_TOL || cones.0 + cones.1 >= MAX_CONES {
+            break;
+        }
+        let s = -h[k].signum();
+        let budget = if s > 0.0 {
+            &mut budget_pos
+        } else {
+            &mut budget_neg
+        };
+        if *budget == 0 {
+            if s > 0.0 {
+                pos_ok = false
+            } else {
+                neg_ok = false
+            }
+            continue;
+        }
+        *budget -= 1;
+        let pk = mesh.uv[unk_nodes[k]];
+        for (m, &i) in unk_nodes.iter().enumerate() {
+            let r = CONE_EXCLUSION * dn[i].max(dn[unk_nodes[k]]);
+            let q = mesh.uv[i];
+            if (q[0] - pk[0]).powi(2) + (q[1] - pk[1]).powi(2) <= r * r {
+                far[m] = false;
+            }
+        }
+        kappa[k] += s * std::f64::consts::FRAC_PI_3;
+        if s > 0.0 {
+            cones.0 += 1
+        } else {
+            cones.1 += 1
+        }
+        for m in 0..nu {
+            b[m] = rhs0[m] + kappa[m];
+        }
+        if !sys.solve(&b, &mut h, GREEDY_TOL) {
+            return None;
+        }
+    }
+    let mut phi = u.clone();
+    for (m, &i) in unk_nodes.iter().enumerate() {
+        phi[i] += h[m];
+    }
+    // the cones found to first order, the metric is made flat exactly
+    if !newton(&mesh, &unk, &unk_nodes, &kappa, &mut phi) {
+        return None;
+    }
+
+    // regions: each triangle belongs to the Neumann hole nearest in
+    // triangle hops (one region when there is none)
+    let ntri = mesh.tris.len();
+    let neumann: Vec<bool> = (0..nholes)
+        .map(|k| mesh.hole_of.iter().any(|&x| x == k))
+        .collect();
+    let mut region = vec![usize::MAX; ntri];
+    let mut queue = VecDeque::new();
+    let mut roots = vec![usize::MAX; nholes.max(1)];
+    for (t, tri) in mesh.tris.iter().enumerate() {
+        for k in 0..3 {
+            let (i, j) = (tri[k], tri[(k + 1) % 3]);
+            let hi = mesh.hole_of[i];
+            if hi != usize::MAX
+                && hi == mesh.hole_of[j]
+                && mesh.adj[t][k] == usize::MAX
+                && region[t] == usize::MAX
+            {
+                region[t] = hi;
+                queue.push_back(t);
+                if roots[hi] == usize::MAX {
+                    roots[hi] = t;
+                }
+            }
+        }
+    }
+    if !neumann.contains(&true) {
+        // one lattice, rooted where the spacing is largest
+        let t = (0..ntri)
+            .min_by(|&a, &c| {
+                let sa: f64 = mesh.tris[a].iter().map(|&i| u[i]).sum();
+                let sc: f64 = mesh.tris[c].iter().map(|&i| u[i]).sum();
+                sa.total_cmp(&sc)
+            })
+            .unwrap();
+        region[t] = 0;
+        roots[0] = t;
+        queue.push_back(t);
+    }
+    while let Some(t) = queue.pop_front() {
+        for k in 0..3 {
+            let o = mesh.adj[t][k];
+            if o != usize::MAX && region[o] == usize::MAX {
+                region[o] = region[t];
+                queue.push_back(o);
+            }
+        }
+    }
+    if !neumann.contains(&true) {
+        roots.truncate(1);
+    } else if (0..nholes).any(|k| neumann[k] && roots[k] == usize::MAX) {
+        return None;
+    }
+
+    // layouts, one per region, aligned to its hole
+    let mut f = vec![[C64::new(0.0, 0.0); 3]; ntri];
+    let len = |i: usize, j: usize| -> f64 {
+        let (a, b) = (mesh.uv[i], mesh.uv[j]);
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt() * (0.5 * (phi[i] + phi[j])).exp()
+    };
+    for (r, &root) in roots.iter().enumerate() {
+        if root == usize::MAX {
+            continue; // a Dirichlet hole: no region of its own
+        }
+        layout(&mesh, root, |t| region[t] == r, &len, &mut f);
+        if neumann.get(r) == Some(&true) {
+            align_to_hole(&mesh, r, bg.holes[r].len(), &region, &mut f);
+        }
+    }
+
+    // lattice points of every laid-out triangle, mapped back
+    let sin60 = 3f64.sqrt() / 2.0;
+    let w = C64::new(0.5, sin60);
+    let mut raw: Vec<[f64; 2]> = Vec::new();
+    for (t, tri) in mesh.tris.iter().enumerate() {
+        let g = f[t];
+        let ab = |z: C64| {
+            let bb = z.im / sin60;
+            (z.re - 0.5 * bb, bb)
+        };
+        let c: Vec<(f64, f64)> = g.iter().map(|&z| ab(z)).collect();
+        let (amin, amax) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |m, x| {
+            (m.0.min(x.0), m.1.max(x.0))
+        });
+        let (bmin, bmax) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |m, x| {
+            (m.0.min(x.1), m.1.max(x.1))
+        });
+        if !(amax - amin < 64.0 && bmax - bmin < 64.0) {
+            continue; // a degenerate layout (should not happen): skip it
+        }
+        let e1 = g[1] - g[0];
+        let e2 = g[2] - g[0];
+        let det = e1.re * e2.im - e1.im * e2.re;
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        for a in amin.floor() as i64..=amax.ceil() as i64 {
+            for bb in bmin.floor() as i64..=bmax.ceil() as i64 {
+                let q = C64::new(a as f64, 0.0) + w * bb as f64 - g[0];
+                let l1 = (q.re * e2.im - q.im * e2.re) / det;
+                let l2 = (e1.re * q.im - e1.im * q.re) / det;
+                if l1 >= -OVERLAP && l2 >= -OVERLAP && l1 + l2 <= 1.0 + OVERLAP {
+                    let (p0, p1, p2) = (mesh.uv[tri[0]], mesh.uv[tri[1]], mesh.uv[tri[2]]);
+                    raw.push([
+                        p0[0] + l1 * (p1[0] - p0[0]) + l2 * (p2[0] - p0[0]),
+                        p0[1] + l1 * (p1[1] - p0[1]) + l2 * (p2[1] - p0[1]),
+                    ]);
+                }
+            }
+        }
+    }
+
+    // keep seeds clear of the segments, the fixed nodes and each other
+    let dmin = dn.iter().cloned().fold(f64::INFINITY, f64::min);
+    let seg_grid = SegmentGrid::new(bg.uv, bg.segments);
+    let mut pts = PointGrid::new(SEED_GAP * dmin);
+    let fixed_d: Vec<f64> = (0..bg.n_fixed).map(|i| d(bg.uv[i])).collect();
+    for i in 0..bg.n_fixed {
+        pts.insert(bg.uv[i]);
+    }
+    let mut seeds = Vec::new();
+    for p in raw {
+        let dp = d(p);
+        if !(dp.is_finite() && dp > 0.0) {
+            continue;
+        }
+        if seg_grid.near(bg.uv, p, BOUNDARY_GAP * dp) {
+            continue;
+        }
+        let mut crowded = false;
+        pts.query(p, SEED_GAP * dp, |k| {
+            // a fixed node counts with the smaller of the two spacings
+            let r = if k < bg.n_fixed {
+                SEED_GAP * dp.min(fixed_d[k])
+            } else {
+                SEED_GAP * dp
+            };
+            let q = pts.at(k);
+            if (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) < r * r {
+                crowded = true;
+            }
+        });
+        if !crowded {
+            pts.insert(p);
+            seeds.push((p, dp));
+        }
+    }
+    Some(Lattice { seeds, cones })
+}
+
+/// The background: the bubble mesh refined 1-to-4, with triangle adjacency,
+/// boundary flags and hole membership.
+struct Refined {
+    uv: Vec<[f64; 2]>,
+    tris: Vec<[usize; 3]>,
+    /// `adj[t][k]`: the triangle across edge (k, k+1) of `t`, or `usize::MAX`.
+    adj: Vec<[usize; 3]>,
+    boundary: Vec<bool>,
+    /// Index of the hole loop a boundary node lies on, or `usize::MAX`.
+    hole_of: Vec<usize>,
+    /// Nodes of the bubble mesh (the first ones; the others are midpoints).
+    n_orig: usize,
+}
+
+fn key(a: usize, b: usize) -> (usize, usize) {
+    (a.min(b), a.max(b))
+}
+
+fn refine(bg: &Background<'_>) -> Refined {
+    let mut uv = bg.uv.to_vec();
+    let mut mid: HashMap<(usize, usize), usize> = HashMap::with_capacity(bg.tris.len() * 2);
+    let mut tris = Vec::with_capacity(bg.tris.len() * 4);
+    for t in bg.tris {
+        let mut m = [0usize; 3];
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            m[k] = *mid.entry(key(a, b)).or_insert_with(|| {
+                uv.push([
+                    0.5 * (bg.uv[a][0] + bg.uv[b][0]),
+                    0.5 * (bg.uv[a][1] + bg.uv[b][1]),
+                ]);
+                uv.len() - 1
+            });
+        }
+        let [a, b, c] = *t;
+        tris.push([a, m[0], m[2]]);
+        tris.push([m[0], b, m[1]]);
+        tris.push([m[2], m[1], c]);
+        tris.push([m[0], m[1], m[2]]);
+    }
+    let n = uv.len();
+    let mut half: HashMap<(usize, usize), (usize, usize)> = HashMap::with_capacity(tris.len() * 2);
+    let mut adj = vec![[usize::MAX; 3]; tris.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let kk = key(tri[k], tri[(k + 1) % 3]);
+            if let Some((o, ok)) = half.remove(&kk) {
+                adj[t][k] = o;
+                adj[o][ok] = t;
+            } else {
+                half.insert(kk, (t, k));
+            }
+        }
+    }
+    let mut boundary = vec![false; n];
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            if adj[t][k] == usize::MAX {
+                boundary[tri[k]] = true;
+                boundary[tri[(k + 1) % 3]] = true;
+            }
+        }
+    }
+    let mut hole_of = vec![usize::MAX; n];
+    for (h, lp) in bg.holes.iter().enumerate() {
+        for (k, &a) in lp.iter().enumerate() {
+            let b = lp[(k + 1) % lp.len()];
+            hole_of[a] = h;
+            if let Some(&m) = mid.get(&key(a, b)) {
+                hole_of[m] = h;
+            }
+        }
+    }
+    Refined {
+        uv,
+        tris,
+        adj,
+        boundary,
+        hole_of,
+        n_orig: bg.uv.len(),
+    }
+}
+
+/// The cotan Laplacian of the metric e^{2φ}|dx|² on the background (edge
+/// lengths ℓ_ij·e^{(φ_i+φ_j)/2}, angles by the law of cosines), positive
+/// semi-definite: (L x)_i = Σ_j w_ij (x_i − x_j), w_ij = (cot α + cot β)/2;
+/// and its curvature at the nodes: 2π (inside) or π (boundary) minus the
+/// angle sum there. With φ = 0 these are the Euclidean L and K_E.
+struct Metric {
+    diag: Vec<f64>,
+    off: Vec<Vec<(usize, f64)>>,
+    curvature: Vec<f64>,
+}
+
+impl Metric {
+    fn new(m: &Refined, phi: &[f64]) -> Metric {
+        let n = m.uv.len();
+        let len = |i: usize, j: usize| {
+            let (a, b) = (m.uv[i], m.uv[j]);
+            (a[0] - b[0]).hypot(a[1] - b[1]) * (0.5 * (phi[i] + phi[j])).exp()
+        };
+        // half-weights per (edge, triangle), merged in edge order: a hash
+        // map's order would make the sums, and so the mesh, vary run to run
+        let mut w: Vec<((usize, usize), f64)> = Vec::with_capacity(m.tris.len() * 3);
+        let mut angle_sum = vec![0.0; n];
+        for tri in &m.tris {
+            let l = [
+                len(tri[1], tri[2]),
+                len(tri[2], tri[0]),
+                len(tri[0], tri[1]),
+            ];
+            for k in 0..3 {
+                // the angle at corner k, opposite l[k]
+                let (x, y, z) = (l[k], l[(k + 1) % 3], l[(k + 2) % 3]);
+                let c = ((y * y + z * z - x * x) / (2.0 * y * z)).clamp(-1.0, 1.0);
+                let a = c.acos();
+                angle_sum[tri[k]] += a;
+                let cot = 1.0 / a.clamp(1e-6, std::f64::consts::PI - 1e-6).tan();
+                w.push((key(tri[(k + 1) % 3], tri[(k + 2) % 3]), 0.5 * cot));
+            }
+        }
+        w.sort_by_key(|e| e.0);
+        let mut diag = vec![0.0; n];
+        let mut off = vec![Vec::new(); n];
+        let mut k = 0;
+        while k < w.len() {
+            let (i, j) = w[k].0;
+            let mut wij = 0.0;
+            while k < w.len() && w[k].0 == (i, j) {
+                wij += w[k].1;
+                k += 1;
+            }
+            diag[i] += wij;
+            diag[j] += wij;
+            off[i].push((j, wij));
+            off[j].push((i, wij));
+        }
+        let curvature = angle_sum
+            .iter()
+            .zip(&m.boundary)
+            .map(|(&s, &b)| {
+                if b {
+                    std::f64::consts::PI - s
+                } else {
+                    std::f64::consts::TAU - s
+                }
+            })
+            .collect();
+        Metric {
+            diag,
+            off,
+            curvature,
+        }
+    }
+
+    /// Rows (off-diagonals) and diagonal of L restricted to the unknowns.
+    fn reduced(&self, unk: &[usize], unk_nodes: &[usize]) -> (Vec<Vec<(usize, f64)>>, Vec<f64>) {
+        let rows = unk_nodes
+            .iter()
+            .map(|&i| {
+                self.off[i]
+                    .iter()
+                    .filter(|&&(j, _)| unk[j] != usize::MAX)
+                    .map(|&(j, w)| (unk[j], -w))
+                    .collect()
+            })
+            .collect();
+        let diag = unk_nodes.iter().map(|&i| self.diag[i]).collect();
+        (rows, diag)
+    }
+}
+
+/// A sparse symmetric positive definite matrix by rows (off-diagonals) and
+/// its diagonal. Solved by conjugate gradients with a Jacobi preconditioner,
+/// written here because the workspace has no sparse solver and one small
+/// well-conditioned system per cone is all this needs.
+struct Spd<'a> {
+    rows: &'a [Vec<(usize, f64)>],
+    diag: &'a [f64],
+}
+
+impl Spd<'_> {
+    fn mul(&self, x: &[f64], y: &mut [f64]) {
+        for i in 0..x.len() {
+            let mut s = self.diag[i] * x[i];
+            for &(j, a) in &self.rows[i] {
+                s += a * x[j];
+            }
+            y[i] = s;
+        }
+    }
+
+    /// Solves A x = b from the start `x` to a residual below `tol`·|b|;
+    /// false if it does not converge.
+    fn solve(&self, b: &[f64], x: &mut [f64], tol: f64) -> bool {
+        let n = b.len();
+        let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300);
+        let mut r = vec![0.0; n];
+        self.mul(x, &mut r);
+        for i in 0..n {
+            r[i] = b[i] - r[i];
+        }
+        let mut z: Vec<f64> = (0..n).map(|i| r[i] / self.diag[i]).collect();
+        let mut p = z.clone();
+        let mut rz: f64 = (0..n).map(|i| r[i] * z[i]).sum();
+        let mut ap = vec![0.0; n];
+        for _ in 0..(5000 + 20 * (n as f64).sqrt() as usize) {
+            let rn = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if rn <= tol * bnorm {
+                return true;
+            }
+            self.mul(&p, &mut ap);
+            let pap: f64 = (0..n).map(|i| p[i] * ap[i]).sum();
+            if !(pap > 0.0) {
+                return false;
+            }
+            let a = rz / pap;
+            for i in 0..n {
+                x[i] += a * p[i];
+                r[i] -= a * ap[i];
+                z[i] = r[i] / self.diag[i];
+            }
+            let rz2: f64 = (0..n).map(|i| r[i] * z[i]).sum();
+            let beta = rz2 / rz;
+            rz = rz2;
+            for i in 0..n {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+        false
+    }
+}
+
+/// Newton steps on the discrete conformal curvature (Springborn, Schröder &
+/// Pinkall 2008): φ += L_φ⁻¹(κ − Ω(φ)) at the unknowns, L_φ and Ω(φ) the
+/// cotan Laplacian and curvature of the metric e^{2φ}|dx|², until
+/// max |κ − Ω| < 1e-7 (three or four steps from the linear solution). To
+/// first order the layout's angle sums are off by about 0.1 rad next to a
+/// hole, which bends the hole's lattice row and leaves a seam where its
+/// ring closes (case C: a lost node on the first ring; research:
+/// buildCones.py, mean 0.9909 → 0.9920). False if a solve fails.
+fn newton(m: &Refined, unk: &[usize], unk_nodes: &[usize], kappa: &[f64], phi: &mut [f64]) -> bool {
+    for _ in 0..NEWTON_STEPS {
+        let g = Metric::new(m, phi);
+        let res: Vec<f64> = unk_nodes
+            .iter()
+            .zip(kappa)
+            .map(|(&i, &k)| k - g.curvature[i])
+            .collect();
+        if res.iter().all(|r| r.abs() < 1e-7) {
+            return true;
+        }
+        let (rows, diag) = g.reduced(unk, unk_nodes);
+        if diag.iter().any(|&x| !(x > 0.0)) {
+            return false;
+        }
+        let mut delta = vec![0.0; res.len()];
+        if !(Spd {
+            rows: &rows,
+            diag: &diag,
+        })
+        .solve(&res, &mut delta, 1e-8)
+        {
+            return false;
+        }
+        for (&i, dl) in unk_nodes.iter().zip(&delta) {
+            phi[i] += dl;
+        }
+    }
+    true
+}
+
+/// Position of c with |c − a| = la, |c − b| = lb, left of a → b.
+fn third(fa: C64, fb: C64, la: f64, lb: f64) -> C64 {
+    let e = fb - fa;
+    let lab = e.norm();
+    let x = (la * la - lb * lb + lab * lab) / (2.0 * lab);
+    let y = (la * la - x * x).max(1e-18).sqrt();
+    fa + e / lab * C64::new(x, y)
+}
+
+/// Unfolds the triangles of a region breadth-first from `root` with the
+/// edge lengths `len`, writing their corners' layout positions into `f`.
+fn layout(
+    m: &Refined,
+    root: usize,
+    inside: impl Fn(usize) -> bool,
+    len: &dyn Fn(usize, usize) -> f64,
+    f: &mut [[C64; 3]],
+) {
+    let [a, b, c] = m.tris[root];
+    let fa = C64::new(0.0, 0.0);
+    let fb = C64::new(len(a, b), 0.0);
+    f[root] = [fa, fb, third(fa, fb, len(a, c), len(b, c))];
+    let mut done = vec![false; m.tris.len()];
+    done[root] = true;
+    let mut queue = VecDeque::from([root]);
+    while let Some(t) = queue.pop_front() {
+        for k in 0..3 {
+            let o = m.adj[t][k];
+            if o == usize::MAX || done[o] || !inside(o) {
+                continue;
+            }
+            let (i, j) = (m.tris[t][k], m.tris[t][(k + 1) % 3]);
+            let km = (0..3).find(|&q| m.tris[o][q] == j).unwrap();
+            let opp = m.tris[o][(km + 2) % 3];
+            let (fj, fi) = (f[t][(k + 1) % 3], f[t][k]);
+            f[o][km] = fj;
+            f[o][(km + 1) % 3] = fi;
+            f[o][(km + 2) % 3] = third(fj, fi, len(j, opp), len(i, opp));
+            done[o] = true;
+            queue.push_back(o);
+        }
+    }
+}
+
+/// Turns, scales and shifts region `h`'s layout so that hole `h` lies on the
+/// lattice row through the origin, its `nodes` nodes on lattice columns.
+fn align_to_hole(m: &Refined, h: usize, nodes: usize, region: &[usize], f: &mut [[C64; 3]]) {
+    let mut edges: Vec<(C64, C64)> = Vec::new();
+    for (t, tri) in m.tris.iter().enumerate() {
+        if region[t] != h {
+            continue;
+        }
+        for k in 0..3 {
+            if m.adj[t][k] == usize::MAX
+                && m.hole_of[tri[k]] == h
+                && m.hole_of[tri[(k + 1) % 3]] == h
+            {
+                edges.push((f[t][k], f[t][(k + 1) % 3]));
+            }
+        }
+    }
+    if edges.is_empty() {
+        return;
+    }
+    let unit = |e: C64| e / e.norm().max(1e-300);
+    let acc6: C64 = edges.iter().map(|&(a, b)| unit(b - a).powi(6)).sum();
+    let mut rot = C64::from_polar(1.0, -acc6.arg() / 6.0);
+    // the hole now runs along one of the three lattice directions: turn it to the real axis
+    let acc2: C64 = edges
+        .iter()
+        .map(|&(a, b)| (unit(b - a) * rot).powi(2))
+        .sum();
+    let k = (acc2.arg() / 2.0 / std::f64::consts::FRAC_PI_3).round();
+    rot *= C64::from_polar(1.0, -k * std::f64::consts::FRAC_PI_3);
+    let length: f64 = edges.iter().map(|&(a, b)| (b - a).norm()).sum();
+    let s = rot * (nodes as f64 / length.max(1e-300));
+    let row = 3f64.sqrt() / 2.0;
+    let tau = std::f64::consts::TAU;
+    let pts: Vec<C64> = edges.iter().map(|&(a, _)| a * s).collect();
+    let yph: C64 = pts
+        .iter()
+        .map(|p| C64::from_polar(1.0, tau * p.im / row))
+        .sum();
+    let yoff = yph.arg() / tau * row;
+    let xph: C64 = pts.iter().map(|p| C64::from_polar(1.0, tau * p.re)).sum();
+    let xoff = xph.arg() / tau;
+    let shift = C64::new(xoff, yoff);
+    for (t, ft) in f.iter_mut().enumerate() {
+        if region[t] == h {
+            for z in ft.iter_mut() {
+                *z = *z * s - shift;
+            }
+        }
+    }
+    // The hole's nodes were spaced by the edge mesher along the hole, not
+    // along the layout, where the scale e^φ varies a little: left alone, the
+    // lattice columns drift out of step with them and a five/seven pair
+    // forms where the drift reaches half a column. So the columns are moved
+    // along the rows (x ↦ g(x), piecewise linear and periodic with the
+    // hole's length) to put the hole's nodes on integers.
+    let mut xs: Vec<f64> = Vec::new();
+    let mut seen = vec![false; m.uv.len()];
+    for (t, tri) in m.tris.iter().enumerate() {
+        if region[t] != h {
+            continue;
+        }
+        for k in 0..3 {
+            let i = tri[k];
+            if i < m.n_orig && m.hole_of[i] == h && !seen[i] {
+                seen[i] = true;
+                xs.push(f[t][k].re);
+            }
+        }
+    }
+    if xs.len() != nodes {
+        return; // a node seen twice or not at all: leave the columns as they are
+    }
+    xs.sort_by(f64::total_cmp);
+    let period = nodes as f64;
+    let x0 = xs[0];
+    if xs[nodes - 1] - x0 >= period {
+        return;
+    }
+    let t0 = x0.round();
+    let g = |x: f64| -> f64 {
+        // periodic: bring x into [x0, x0 + period)
+        let wraps = ((x - x0) / period).floor();
+        let y = x - wraps * period;
+        let k = xs.partition_point(|&v| v <= y); // xs[k-1] <= y < xs[k]
+        let (xa, ta, xb, tb) = if k == 0 {
+            (
+                xs[nodes - 1] - period,
+                t0 + period - 1.0 - period,
+                xs[0],
+                t0,
+            )
+        } else if k == nodes {
+            (
+                xs[nodes - 1],
+                t0 + period - 1.0,
+                xs[0] + period,
+                t0 + period,
+            )
+        } else {
+            (xs[k - 1], t0 + (k - 1) as f64, xs[k], t0 + k as f64)
+        };
+        let r = if xb > xa { (y - xa) / (xb - xa) } else { 0.0 };
+        ta + r * (tb - ta) + wraps * period
+    };
+    for (t, ft) in f.iter_mut().enumerate() {
+        if region[t] == h {
+            for z in ft.iter_mut() {
+                *z = C64::new(g(z.re), z.im);
+            }
+        }
+    }
+}
+
+/// Boundary and constraint segments bucketed by a uniform grid, for "is
+/// this point within r of a segment".
+struct SegmentGrid {
+    cell: f64,
+    buckets: HashMap<(i64, i64), Vec<usize>>,
+    segs: Vec<[usize; 2]>,
+}
+
+impl SegmentGrid {
+    fn new(uv: &[[f64; 2]], segs: &[[usize; 2]]) -> SegmentGrid {
+        let cell = segs
+            .iter()
+            .map(|s| {
+                let (a, b) = (uv[s[0]], uv[s[1]]);
+                (a[0] - b[0]).hypot(a[1] - b[1])
+            })
+            .fold(0.0f64, f64::max)
+            .max(1e-12);
+        let mut buckets: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+        for (k, s) in segs.iter().enumerate() {
+            let (a, b) = (uv[s[0]], uv[s[1]]);
+            let c = (
+                (0.5 * (a[0] + b[0]) / cell).floor() as i64,
+                (0.5 * (a[1] + b[1]) / cell).floor() as i64,
+            );
+            buckets.entry(c).or_default().push(k);
+        }
+        SegmentGrid {
+            cell,
+            buckets,
+            segs: segs.to_vec(),
+        }
+    }
+
+    fn near(&self, uv: &[[f64; 2]], p: [f64; 2], r: f64) -> bool {
+        // a segment within r has its midpoint within r + cell/2
+        let reach = ((r + 0.5 * self.cell) / self.cell).ceil() as i64 + 1;
+        let (ci, cj) = (
+            (p[0] / self.cell).floor() as i64,
+            (p[1] / self.cell).floor() as i64,
+        );
+        for di in -reach..=reach {
+            for dj in -reach..=reach {
+                if let Some(b) = self.buckets.get(&(ci + di, cj + dj)) {
+                    for &k in b {
+                        let (a, c) = (uv[self.segs[k][0]], uv[self.segs[k][1]]);
+                        if point_segment_dist2(p, a, c) < r * r {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+fn point_segment_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let e = [b[0] - a[0], b[1] - a[1]];
+    let l2 = e[0] * e[0] + e[1] * e[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let q = [a[0] + t * e[0] - p[0], a[1] + t * e[1] - p[1]];
+    q[0] * q[0] + q[1] * q[1]
+}
+
+/// Points in a uniform hash grid that grows as points are inserted.
+struct PointGrid {
+    cell: f64,
+    buckets: HashMap<(i64, i64), Vec<usize>>,
+    pts: Vec<[f64; 2]>,
+}
+
+impl PointGrid {
+    fn new(cell: f64) -> PointGrid {
+        PointGrid {
+            cell: cell.max(1e-12),
+            buckets: HashMap::new(),
+            pts: Vec::new(),
+        }
+    }
+    fn cell_of(&self, p: [f64; 2]) -> (i64, i64) {
+        (
+            (p[0] / self.cell).floor() as i64,
+            (p[1] / self.cell).floor() as i64,
+        )
+    }
+    fn insert(&mut self, p: [f64; 2]) {
+        let c = self.cell_of(p);
+        self.buckets.entry(c).or_default().push(self.pts.len());
+        self.pts.push(p);
+    }
+    fn at(&self, k: usize) -> [f64; 2] {
+        self.pts[k]
+    }
+    fn query(&self, p: [f64; 2], r: f64, mut f: impl FnMut(usize)) {
+        let reach = (r / self.cell).ceil() as i64;
+        let (ci, cj) = self.cell_of(p);
+        for di in -reach..=reach {
+            for dj in -reach..=reach {
+                if let Some(b) = self.buckets.get(&(ci + di, cj + dj)) {
+                    for &k in b {
+                        f(k);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The unit square as an m×m grid of right triangles; fixed nodes (the
+    /// boundary, counter-clockwise) first, and the boundary segments.
+    fn square_background(m: usize) -> (Vec<[f64; 2]>, Vec<[usize; 3]>, usize, Vec<[usize; 2]>) {
+        let h = 1.0 / m as f64;
+        let on_boundary = |i: usize, j: usize| i == 0 || j == 0 || i == m || j == m;
+        let mut ring: Vec<(usize, usize)> = Vec::new();
+        ring.extend((0..m).map(|i| (i, 0)));
+        ring.extend((0..m).map(|j| (m, j)));
+        ring.extend((1..=m).rev().map(|i| (i, m)));
+        ring.extend((1..=m).rev().map(|j| (0, j)));
+        let mut index = vec![usize::MAX; (m + 1) * (m + 1)];
+        let mut uv = Vec::new();
+        for &(i, j) in &ring {
+            index[i * (m + 1) + j] = uv.len();
+            uv.push([i as f64 * h, j as f64 * h]);
+        }
+        let n_fixed = uv.len();
+        for i in 0..=m {
+            for j in 0..=m {
+                if !on_boundary(i, j) {
+                    index[i * (m + 1) + j] = uv.len();
+                    uv.push([i as f64 * h, j as f64 * h]);
+                }
+            }
+        }
+        let at = |i: usize, j: usize| index[i * (m + 1) + j];
+        let mut tris = Vec::new();
+        for i in 0..m {
+            for j in 0..m {
+                tris.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                tris.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let segs = (0..n_fixed).map(|k| [k, (k + 1) % n_fixed]).collect();
+        (uv, tris, n_fixed, segs)
+    }
+
+    fn seeds_for(d: impl Fn([f64; 2]) -> f64) -> Lattice {
+        let (uv, tris, n_fixed, segs) = square_background(40);
+        let bg = Background {
+            uv: &uv,
+            tris: &tris,
+            n_fixed,
+            holes: &[],
+            segments: &segs,
+        };
+        let mut d = d;
+        lattice_seeds(&bg, &mut d).expect("the square flattens")
+    }
+
+    /// log d linear in x is harmonic: the metric is flat, so no cone is
+    /// placed and the seeds are one exact lattice in it: every seed away
+    /// from the boundary has six neighbours at one spacing (d at the edge's
+    /// midpoint; within 2 %).
+    #[test]
+    fn flat_metric_needs_no_cones_and_gives_an_exact_lattice() {
+        let d = |p: [f64; 2]| 0.05 * p[0].exp();
+        let lat = seeds_for(d);
+        assert_eq!(lat.cones, (0, 0));
+        let pts: Vec<[f64; 2]> = lat.seeds.iter().map(|s| s.0).collect();
+        let mut checked = 0;
+        for (k, &(p, dp)) in lat.seeds.iter().enumerate() {
+            let margin = p[0].min(p[1]).min(1.0 - p[0]).min(1.0 - p[1]);
+            if margin < 2.5 * dp {
+                continue;
+            }
+            let mut near: Vec<f64> = pts
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != k)
+                .map(|(_, q)| {
+                    let mid = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])];
+                    (q[0] - p[0]).hypot(q[1] - p[1]) / d(mid)
+                })
+                .filter(|&r| r < 1.4)
+                .collect();
+            near.sort_by(f64::total_cmp);
+            assert_eq!(near.len(), 6, "seed {p:?}: neighbours at {near:?}");
+            assert!(
+                near.iter().all(|r| (r - 1.0).abs() < 0.02),
+                "seed {p:?}: neighbours at {near:?} spacings"
+            );
+            checked += 1;
+        }
+        assert!(checked > 40, "only {checked} seeds checked");
+    }
+
+    /// Case B's spacing is a round sphere seen stereographically (positive
+    /// curvature): the cones are mostly positive (five-valent), and few.
+    #[test]
+    fn sphere_metric_gets_few_positive_cones() {
+        let lat = seeds_for(|p| 0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2)));
+        let (pos, neg) = lat.cones;
+        assert!(pos >= neg + 5 && pos + neg <= 20, "cones {:?}", lat.cones);
+    }
+
+    /// Newton makes the metric flat to the tolerance: the angle sums of the
+    /// layout are 2π − κ inside.
+    #[test]
+    fn newton_closes_the_angle_sums() {
+        let (uv, tris, n_fixed, segs) = square_background(16);
+        let bg = Background {
+            uv: &uv,
+            tris: &tris,
+            n_fixed,
+            holes: &[],
+            segments: &segs,
+        };
+        let m = refine(&bg);
+        let n = m.uv.len();
+        let mut unk = vec![usize::MAX; n];
+        let mut unk_nodes = Vec::new();
+        for i in 0..n {
+            if !m.boundary[i] {
+                unk[i] = unk_nodes.len();
+                unk_nodes.push(i);
+            }
+        }
+        // u = −log d with d = 0.01 + 0.2 r², and one positive cone in the middle
+        let mut phi: Vec<f64> =
+            m.uv.iter()
+                .map(|p| -(0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2))).ln())
+                .collect();
+        let mut kappa = vec![0.0; unk_nodes.len()];
+        let mid = (0..unk_nodes.len())
+            .min_by(|&a, &b| {
+                let r = |k: usize| {
+                    let p = m.uv[unk_nodes[k]];
+                    (p[0] - 0.5).hypot(p[1] - 0.5)
+                };
+                r(a).total_cmp(&r(b))
+            })
+            .unwrap();
+        kappa[mid] = std::f64::consts::FRAC_PI_3;
+        assert!(newton(&m, &unk, &unk_nodes, &kappa, &mut phi));
+        let g = Metric::new(&m, &phi);
+        for (k, &i) in unk_nodes.iter().enumerate() {
+            assert!(
+                (g.curvature[i] - kappa[k]).abs() < 1e-6,
+                "node {i}: {}",
+                g.curvature[i]
+            );
+        }
+    }
+}
