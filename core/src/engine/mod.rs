@@ -1113,11 +1113,11 @@ fn isometric(surface: &dyn crate::geom::Surface, lo: [f64; 2], hi: [f64; 2]) -> 
 }
 
 /// Rebuilds a graded planar face from the lattice conformal to its spacing
-/// (`conformal::lattice_seeds` over the current mesh), connected and improved
-/// as the packed bubbles were, and keeps the result if its mean radius ratio
-/// is higher and its edges are in the spacing band [1/√2, √2] as often (or
-/// at least 99.5 % of them); otherwise the packed mesh stays. Returns the cones placed when
-/// the lattice mesh was kept.
+/// (`conformal::lattice_seeds` over the current mesh) as a new stage 1, and
+/// keeps the result if its mean radius ratio is higher and its edges are in
+/// the spacing band [1/√2, √2] as often (or at least 99.5 % of them);
+/// otherwise the packed mesh stays. Returns the cones placed and the second
+/// stage 2's statistics when the lattice mesh was kept.
 fn conformal_restart<C: constraint::Carrier>(
     sys: &mut system::System<'_, C>,
     tris: &mut Vec<[usize; 3]>,
@@ -1154,7 +1154,9 @@ fn conformal_restart<C: constraint::Carrier>(
             .sum::<f64>()
             / tris.len().max(1) as f64
     };
-    // edges with L/d in [1/√2, √2], d the mean of the ends' spacings
+    // edges with L/d in [1/√2, √2], d the mean of the ends' spacings (each
+    // interior edge counted once, boundary edges by their orientation, alike
+    // in both meshes)
     let in_band = |sys: &system::System<'_, C>, tris: &[[usize; 3]]| {
         let (mut inside, mut all) = (0usize, 0usize);
         for t in tris {
@@ -1186,37 +1188,44 @@ fn conformal_restart<C: constraint::Carrier>(
     // the lattice is stage 1: stage 2 relaxes it (it keeps its topology and
     // evens out what the seams between layouts left), then the connection
     // and improvement as before, and more rounds of the mean lift, as the
-    // lattice leaves only the positions to settle
-    let relax = sys.relax(settings, |_| {})?;
-    let carrier = &sys.carrier;
-    let mut new_tris =
-        connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;
-    improve::improve(sys, &mut new_tris, segments, IMPROVE_ROUNDS)?;
-    improve::lift_mean(
-        sys,
-        &mut new_tris,
-        segments,
-        LATTICE_MEAN_Q,
-        LATTICE_MEAN_ROUNDS,
-    )?;
+    // lattice leaves only the positions to settle. An error on this path
+    // (say a constraint the connection cannot keep) leaves the packed mesh.
+    let attempt = (|| -> Result<_, MeshError> {
+        let relax = sys.relax(settings, |_| {})?;
+        let carrier = &sys.carrier;
+        let mut new_tris =
+            connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;
+        improve::improve(sys, &mut new_tris, segments, IMPROVE_ROUNDS)?;
+        improve::lift_mean(
+            sys,
+            &mut new_tris,
+            segments,
+            LATTICE_MEAN_Q,
+            LATTICE_MEAN_ROUNDS,
+        )?;
+        Ok((relax, new_tris))
+    })();
     // kept only if better in mean radius ratio and no worse in spacing
-    // (interior edges are counted once or twice, alike in both meshes)
-    if !new_tris.is_empty()
-        && mean_q(sys, &new_tris) > before.0
-        && in_band(sys, &new_tris) >= before.1.min(0.995)
-    {
-        *tris = new_tris;
-        Ok(Some((lattice.cones, relax)))
-    } else {
-        sys.pos.truncate(nf);
-        sys.params.truncate(nf);
-        sys.vel.truncate(nf);
-        sys.d.truncate(nf);
-        sys.pos.extend(saved.0);
-        sys.params.extend(saved.1);
-        sys.vel.extend(saved.2);
-        sys.d.extend(saved.3);
-        Ok(None)
+    match attempt {
+        Ok((relax, new_tris))
+            if !new_tris.is_empty()
+                && mean_q(sys, &new_tris) > before.0
+                && in_band(sys, &new_tris) >= before.1.min(0.995) =>
+        {
+            *tris = new_tris;
+            Ok(Some((lattice.cones, relax)))
+        }
+        _ => {
+            sys.pos.truncate(nf);
+            sys.params.truncate(nf);
+            sys.vel.truncate(nf);
+            sys.d.truncate(nf);
+            sys.pos.extend(saved.0);
+            sys.params.extend(saved.1);
+            sys.vel.extend(saved.2);
+            sys.d.extend(saved.3);
+            Ok(None)
+        }
     }
 }
 
