@@ -127,11 +127,12 @@ pub struct Lattice {
 /// the background mesh; `None` when the face cannot be flattened (no outer
 /// loop to hold the scale, too large, or a solve that does not converge).
 pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) -> Option<Lattice> {
-    let mut mesh = refine(bg);
-    let n = mesh.uv.len();
-    if n > MAX_BACKGROUND_NODES || mesh.tris.is_empty() {
+    // the refined mesh has about four times the nodes: check before building it
+    if 4 * bg.uv.len() > MAX_BACKGROUND_NODES || bg.tris.is_empty() {
         return None;
     }
+    let mut mesh = refine(bg);
+    let n = mesh.uv.len();
     let dn: Vec<f64> = mesh.uv.iter().map(|&p| d(p)).collect();
     if dn.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
         return None;
@@ -1024,17 +1025,21 @@ mod tests {
         (uv, tris, n_fixed, segs)
     }
 
-    fn seeds_for(d: impl Fn([f64; 2]) -> f64) -> Lattice {
-        let (uv, tris, n_fixed, segs) = square_background(40);
-        let bg = Background {
+    /// Calls `f` with the m×m square background.
+    fn with_square<R>(m: usize, f: impl FnOnce(&Background<'_>) -> R) -> R {
+        let (uv, tris, n_fixed, segs) = square_background(m);
+        f(&Background {
             uv: &uv,
             tris: &tris,
             n_fixed,
             holes: &[],
             segments: &segs,
-        };
+        })
+    }
+
+    fn seeds_for(d: impl Fn([f64; 2]) -> f64) -> Lattice {
         let mut d = d;
-        lattice_seeds(&bg, &mut d).expect("the square flattens")
+        with_square(40, |bg| lattice_seeds(bg, &mut d)).expect("the square flattens")
     }
 
     /// log d linear in x is harmonic: the metric is flat, so no cone is
@@ -1087,15 +1092,7 @@ mod tests {
     /// layout are 2π − κ inside.
     #[test]
     fn newton_closes_the_angle_sums() {
-        let (uv, tris, n_fixed, segs) = square_background(16);
-        let bg = Background {
-            uv: &uv,
-            tris: &tris,
-            n_fixed,
-            holes: &[],
-            segments: &segs,
-        };
-        let m = refine(&bg);
+        let m = with_square(16, refine);
         let n = m.uv.len();
         let mut unk = vec![usize::MAX; n];
         let mut unk_nodes = Vec::new();

@@ -78,10 +78,7 @@ pub fn improve<C: Carrier>(
     constraints: &[[usize; 2]],
     rounds: usize,
 ) -> Result<(), MeshError> {
-    let fixed: HashSet<(usize, usize)> = constraints
-        .iter()
-        .map(|e| (e[0].min(e[1]), e[0].max(e[1])))
-        .collect();
+    let fixed = undirected(constraints);
     for _ in 0..rounds {
         let moved = relax_edges(sys, tris, 10)?;
         if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
@@ -99,6 +96,14 @@ pub fn improve<C: Carrier>(
     Ok(())
 }
 
+/// The constraint edges as undirected pairs (lower index first).
+fn undirected(constraints: &[[usize; 2]]) -> HashSet<(usize, usize)> {
+    constraints
+        .iter()
+        .map(|e| (e[0].min(e[1]), e[0].max(e[1])))
+        .collect()
+}
+
 /// More rounds of [`Lift::Mean`] over the bubbles of every triangle below
 /// `below` (with flips after each), for a mesh whose connectivity is already
 /// good, so that only the node positions are left to settle.
@@ -109,10 +114,7 @@ pub fn lift_mean<C: Carrier>(
     below: f64,
     rounds: usize,
 ) -> Result<(), MeshError> {
-    let fixed: HashSet<(usize, usize)> = constraints
-        .iter()
-        .map(|e| (e[0].min(e[1]), e[0].max(e[1])))
-        .collect();
+    let fixed = undirected(constraints);
     for _ in 0..rounds {
         let moved = lift_bubbles(sys, tris, Lift::Mean, below, BAND_WEIGHT)?;
         if moved.is_empty() {
