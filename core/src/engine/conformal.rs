@@ -222,7 +222,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         let (mut p, mut q) = (0.0, 0.0);
         for (m, &i) in unk_nodes.iter().enumerate() {
             if mesh.hole_of[i] == usize::MAX {
-                let k = rhs0[m] * -1.0; // rhs0 = −(L u) − K_E
+                let k = -rhs0[m]; // rhs0 = −(L u) − K_E
                 if k > 0.0 {
                     p += k
                 } else {
@@ -294,9 +294,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
     // regions: each triangle belongs to the Neumann hole nearest in
     // triangle hops (one region when there is none)
     let ntri = mesh.tris.len();
-    let neumann: Vec<bool> = (0..nholes)
-        .map(|k| mesh.hole_of.iter().any(|&x| x == k))
-        .collect();
+    let neumann: Vec<bool> = (0..nholes).map(|k| mesh.hole_of.contains(&k)).collect();
     let mut region = vec![usize::MAX; ntri];
     let mut queue = VecDeque::new();
     let mut roots = vec![usize::MAX; nholes.max(1)];
