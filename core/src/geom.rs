@@ -187,3 +187,16 @@ impl Surface for Plane {
         true
     }
 }
+
+/// The point of the segment [a, b] nearest to `p`, in the plane (a
+/// degenerate segment gives `a`).
+pub fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    let t = if l2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    [a[0] + t * d[0], a[1] + t * d[1]]
+}

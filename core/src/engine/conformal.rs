@@ -927,15 +927,8 @@ impl SegmentGrid {
 }
 
 fn point_segment_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let e = [b[0] - a[0], b[1] - a[1]];
-    let l2 = e[0] * e[0] + e[1] * e[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let q = [a[0] + t * e[0] - p[0], a[1] + t * e[1] - p[1]];
-    q[0] * q[0] + q[1] * q[1]
+    let q = crate::geom::closest_on_segment(p, a, b);
+    (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)
 }
 
 /// Points in a uniform hash grid that grows as points are inserted.

@@ -51,14 +51,7 @@ pub(crate) fn inside(p: Xy, poly: &[Xy]) -> bool {
 
 /// Distance from `p` to the segment [a, b].
 pub(crate) fn dist_to_segment(p: Xy, a: Xy, b: Xy) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    dist(p, [a[0] + t * d[0], a[1] + t * d[1]])
+    dist(p, bubblemesh_core::geom::closest_on_segment(p, a, b))
 }
 
 /// (b − a) × (c − a): > 0 when c is left of a→b.
