@@ -46,12 +46,20 @@ pub enum Connect3dError {
         x: f64,
         y: f64,
         z: f64,
+        /// Indices into the boundary triangles of those missing (at most
+        /// [`MAX_REPORTED`]), so that the faces they belong to can be
+        /// meshed finer.
+        triangles: Vec<u32>,
     },
     #[error("the boundary mesh does not close the volume: the tetrahedra inside reach the convex hull near ({x:.6}, {y:.6}, {z:.6})")]
     Leak { x: f64, y: f64, z: f64 },
     #[error("two boundary nodes coincide at ({x:.6}, {y:.6}, {z:.6})")]
     Duplicate { x: f64, y: f64, z: f64 },
 }
+
+/// The most missing boundary triangles a [`Connect3dError::NotConforming`]
+/// lists.
+pub const MAX_REPORTED: usize = 10_000;
 
 /// The tetrahedra of a volume.
 #[derive(Debug, Default)]
@@ -204,6 +212,11 @@ pub fn connect_volume(
                     x: p.x,
                     y: p.y,
                     z: p.z,
+                    triangles: missing
+                        .iter()
+                        .take(MAX_REPORTED)
+                        .map(|&k| k as u32)
+                        .collect(),
                 });
             }
             let before = removed;
@@ -215,6 +228,11 @@ pub fn connect_volume(
                     x: p.x,
                     y: p.y,
                     z: p.z,
+                    triangles: missing
+                        .iter()
+                        .take(MAX_REPORTED)
+                        .map(|&k| k as u32)
+                        .collect(),
                 });
             }
             continue;
@@ -363,6 +381,11 @@ fn flood_inside(
             x: p.x,
             y: p.y,
             z: p.z,
+            triangles: (0..boundary.len())
+                .filter(|k| !used.contains(k))
+                .take(MAX_REPORTED)
+                .map(|k| k as u32)
+                .collect(),
         });
     }
     Ok(inside)

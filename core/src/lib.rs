@@ -19,7 +19,8 @@
 //! - [`connect`]: constrained Delaunay connection of bubble centres;
 //!   [`connect3d`]: the boundary-conforming Delaunay tetrahedralization of a
 //!   volume's bubbles;
-//! - [`mesh`]: the mesh with source entities; [`quality`]: element quality.
+//! - [`mesh`]: the mesh with source entities; [`quality`]: element quality;
+//!   [`verify`]: the last check a mesh passes before it may be written.
 
 pub mod connect;
 pub mod connect3d;
@@ -30,6 +31,7 @@ pub mod mesh;
 pub mod model;
 pub mod quality;
 pub mod spacing;
+pub mod verify;
 
 pub use engine::{mesh_model, MeshError, Options, Report};
 pub use geom::{Curve, Plane, Surface, SurfaceDerivs, P3, V3};

@@ -21,9 +21,11 @@ pub mod growth;
 pub mod improve;
 pub(crate) mod incidence;
 pub mod odt;
+mod orient;
 pub mod placement;
 pub mod polish;
 pub mod population;
+pub mod refine;
 pub mod region;
 pub mod shell;
 pub mod sliver;
@@ -190,6 +192,9 @@ pub struct Report {
     pub timings: Timings,
     pub faces: Vec<FaceReport>,
     pub volumes: Vec<volume::VolumeReport>,
+    /// Faces meshed with a spacing finer than requested because the
+    /// requested one could not give them a valid mesh ([`refine`]).
+    pub refined: Vec<refine::RefinedFace>,
 }
 
 /// A meshing failure. Messages name the entity and the reason.
@@ -209,6 +214,14 @@ pub enum MeshError {
     Unsupported(String),
     #[error("cannot triangulate: {0}")]
     Connect(#[from] ConnectError),
+    /// A step failed where a finer spacing on `faces` may succeed (a
+    /// surface mesh that is not Delaunay enough for boundary recovery).
+    #[error("{message}")]
+    Refinable { message: String, faces: Vec<u32> },
+    /// The finished mesh failed [`crate::verify::verify`]: nothing may be
+    /// written.
+    #[error("{0}")]
+    Check(#[from] crate::verify::CheckError),
     #[error("{what}: {source}")]
     In {
         what: String,
@@ -250,12 +263,92 @@ pub(crate) fn check_spacing(d: f64, point: P3, entity: EntityRef) -> Result<f64,
 
 /// Meshes `model` with the node spacing `spacing`, in the order of
 /// dimensions, up to `opts.dim` (default: the model's dimension).
+///
+/// A face that cannot be connected at the requested spacing, or whose mesh
+/// fails the final check, is meshed again with a finer spacing inside it and
+/// on its edges ([`refine`]); the report lists every such face. The mesh
+/// returned has passed [`crate::verify::verify`].
 pub fn mesh_model(
     model: &Model,
     spacing: &dyn Spacing,
     opts: &Options,
 ) -> Result<(Mesh, Report), MeshError> {
     let t_start = Instant::now();
+    let mut refinement = refine::Refinement::new(model);
+    loop {
+        let refined = refine::Refined {
+            inner: spacing,
+            refinement: &refinement,
+        };
+        match mesh_once(model, &refined, spacing, opts, &refinement) {
+            Ok((mesh, mut report)) => {
+                report.refined = refinement.faces(model);
+                report.timings.total_s = t_start.elapsed().as_secs_f64();
+                return Ok((mesh, report));
+            }
+            Err(failed) => {
+                let reason = failed.error.to_string();
+                if failed.faces.is_empty() && failed.edges.is_empty()
+                    || opts.fast
+                    || !refinement.bump(model, &failed.faces, &failed.edges, &reason)
+                {
+                    return Err(failed.error);
+                }
+            }
+        }
+    }
+}
+
+/// A failed attempt: the error, and the faces and edges whose refinement
+/// may cure it.
+struct Failed {
+    error: MeshError,
+    faces: Vec<u32>,
+    edges: Vec<u32>,
+}
+
+impl From<MeshError> for Failed {
+    fn from(error: MeshError) -> Self {
+        /// The faces and edges whose refinement may cure `e`.
+        fn culprits(e: &MeshError) -> (Vec<u32>, Vec<u32>) {
+            match e {
+                MeshError::In { source, .. } => culprits(source),
+                MeshError::Refinable { faces, .. } => (faces.clone(), vec![]),
+                MeshError::Check(c) if c.refinable => {
+                    let mut f = Vec::new();
+                    let mut e = Vec::new();
+                    for x in std::iter::once(c.entity).chain(c.also.iter().copied()) {
+                        match x.dim {
+                            2 => f.push(x.id),
+                            1 => e.push(x.id),
+                            _ => {}
+                        }
+                    }
+                    (f, e)
+                }
+                _ => (vec![], vec![]),
+            }
+        }
+        let (faces, edges) = culprits(&error);
+        Failed {
+            error,
+            faces,
+            edges,
+        }
+    }
+}
+
+/// One attempt of [`mesh_model`] at the spacing `spacing` (already refined
+/// by `refinement`). Volumes are packed with `volume_spacing`, the requested
+/// spacing, which agrees with `spacing` inside volumes but keeps telling
+/// when it is uniform (the BCC start needs that).
+fn mesh_once(
+    model: &Model,
+    spacing: &dyn Spacing,
+    volume_spacing: &dyn Spacing,
+    opts: &Options,
+    refinement: &refine::Refinement,
+) -> Result<(Mesh, Report), Failed> {
     let model_dim = model.dim();
     let dim = opts.dim.unwrap_or(model_dim);
     if dim > model_dim {
@@ -266,7 +359,8 @@ pub fn mesh_model(
             model.edges.len(),
             model.faces.len(),
             model.volumes.len()
-        )));
+        ))
+        .into());
     }
     let mut mesh = Mesh::default();
     mesh.set_entities_from(model);
@@ -286,7 +380,8 @@ pub fn mesh_model(
             return Err(MeshError::Invalid(format!(
                 "{} has a non-finite position",
                 model.describe(e)
-            )));
+            ))
+            .into());
         }
         let d = spacing.spacing(&SpacingQuery {
             point: v.point,
@@ -304,11 +399,59 @@ pub fn mesh_model(
     // 2. edges
     let t_edges = Instant::now();
     let mut edge_nodes: Vec<Vec<u32>> = Vec::with_capacity(model.edges.len());
+    // vertex pairs joined by an edge meshed as one segment: a second such
+    // edge between the same vertices (two arcs of a circle, a line beside an
+    // arc, both shorter than the spacing) gets a middle node, or the two
+    // edges would share one mesh segment and their faces one mesh edge
+    let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
     if dim >= 1 {
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
-            let ids = mesh_edge(model, ei, spacing, opts.fast, &mut mesh, &mut node_d)
+            let mut ids = mesh_edge(model, ei, spacing, opts.fast, &mut mesh, &mut node_d)
                 .map_err(|x| x.within(model.describe(e)))?;
+            let min_segments = refinement.min_segments(ei);
+            if ids.len() - 1 < min_segments {
+                // a refined edge shorter than its spacing: equal parameter steps
+                mesh.nodes.truncate(mesh.nodes.len() + 2 - ids.len());
+                node_d.truncate(node_d.len() + 2 - ids.len());
+                ids.truncate(1);
+                for k in 1..min_segments {
+                    let t = edge.t0 + (edge.t1 - edge.t0) * k as f64 / min_segments as f64;
+                    let p = edge.curve.point(t);
+                    let d = spacing.spacing(&SpacingQuery {
+                        point: p,
+                        entity: e,
+                        params: [t, 0.0],
+                    });
+                    node_d.push(check_spacing(d, p, e).map_err(|x| x.within(model.describe(e)))?);
+                    ids.push(mesh.nodes.len() as u32);
+                    mesh.nodes.push(Node {
+                        pos: p,
+                        entity: e,
+                        params: [t, 0.0],
+                    });
+                }
+                ids.push(edge.end);
+            }
+            if ids.len() == 2 {
+                let pair = (edge.start.min(edge.end), edge.start.max(edge.end));
+                if !single_segment.insert(pair) {
+                    let t = 0.5 * (edge.t0 + edge.t1);
+                    let p = edge.curve.point(t);
+                    let d = spacing.spacing(&SpacingQuery {
+                        point: p,
+                        entity: e,
+                        params: [t, 0.0],
+                    });
+                    node_d.push(check_spacing(d, p, e).map_err(|x| x.within(model.describe(e)))?);
+                    ids.insert(1, mesh.nodes.len() as u32);
+                    mesh.nodes.push(Node {
+                        pos: p,
+                        entity: e,
+                        params: [t, 0.0],
+                    });
+                }
+            }
             for w in ids.windows(2) {
                 mesh.lines.push(Element {
                     nodes: [w[0], w[1]],
@@ -323,6 +466,7 @@ pub fn mesh_model(
 
     // 3. faces
     if dim >= 2 {
+        let mut failed: Vec<(u32, MeshError)> = Vec::new();
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
             let mut face = |grow: bool| {
@@ -342,12 +486,27 @@ pub fn mesh_model(
             // sheet's pole cap at size 1.5, "constraint segments cross") is
             // retried from the quadtree's start; a failed connection leaves
             // the mesh untouched
-            let fr = match face(true) {
+            match match face(true) {
                 Err(MeshError::Connect(_)) if !opts.fast => face(false),
                 r => r,
+            } {
+                Ok(fr) => report.faces.push(fr),
+                Err(err @ (MeshError::BadSpacing { .. } | MeshError::TooManyBubbles { .. })) => {
+                    return Err(err.within(model.describe(e)).into())
+                }
+                // the other faces are meshed all the same, so that one
+                // refinement round covers every face that needs it
+                Err(err) => failed.push((fi as u32, err.within(model.describe(e)))),
             }
-            .map_err(|x| x.within(model.describe(e)))?;
-            report.faces.push(fr);
+        }
+        if !failed.is_empty() {
+            let faces = failed.iter().map(|f| f.0).collect();
+            let error = failed.swap_remove(0).1;
+            return Err(Failed {
+                error,
+                faces,
+                edges: vec![],
+            });
         }
     }
     // closed shells: every volume's face triangles outward (a face shared
@@ -372,7 +531,7 @@ pub fn mesh_model(
             let vr = volume::mesh_volume(
                 model,
                 vi,
-                spacing,
+                volume_spacing,
                 opts,
                 &mut mesh,
                 &node_d,
@@ -382,11 +541,12 @@ pub fn mesh_model(
             report.volumes.push(vr);
         }
     }
+    // never silently wrong: the mesh leaves the engine only after its check
+    crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
     report.nodes = mesh.nodes.len();
     report.lines = mesh.lines.len();
     report.triangles = mesh.triangles.len();
     report.tetrahedra = mesh.tetrahedra.len();
-    report.timings.total_s = t_start.elapsed().as_secs_f64();
     Ok((mesh, report))
 }
 
@@ -422,7 +582,20 @@ fn orient_volume_faces(model: &Model, mesh: &mut Mesh, strict: bool) -> Result<(
         let oriented = match volume::boundary_of(model, vi, mesh) {
             Ok(t) => t,
             Err(err) if strict => return Err(err.within(model.describe(e))),
-            Err(_) => continue,
+            Err(_) => {
+                // a surface mesh all the same: orient the faces among themselves
+                let faces: Vec<u32> = model.volumes[vi]
+                    .faces
+                    .iter()
+                    .copied()
+                    .filter(|&f| !done[f as usize])
+                    .collect();
+                orient::orient_faces(model, mesh, &faces, true);
+                for f in faces {
+                    done[f as usize] = true;
+                }
+                continue;
+            }
         };
         let by_key: std::collections::HashMap<[u32; 3], [u32; 3]> = oriented
             .iter()
@@ -447,6 +620,12 @@ fn orient_volume_faces(model: &Model, mesh: &mut Mesh, strict: bool) -> Result<(
             done[f as usize] = true;
         }
     }
+    // faces of no volume (shells that bound no solid, sheets): consistent
+    // among themselves, closed shells outward
+    let free: Vec<u32> = (0..model.faces.len() as u32)
+        .filter(|&f| !done[f as usize])
+        .collect();
+    orient::orient_faces(model, mesh, &free, false);
     Ok(())
 }
 

@@ -418,6 +418,40 @@ pub fn boundary_of(
     Ok(tris)
 }
 
+/// A failed tetrahedralization as a [`MeshError`]: boundary triangles that
+/// are not faces of the tetrahedralization name their faces, which a finer
+/// surface mesh may make Delaunay ([`super::refine`]).
+fn connect_error(
+    e: crate::connect3d::Connect3dError,
+    boundary: &[[u32; 3]],
+    mesh: &crate::mesh::Mesh,
+) -> MeshError {
+    let crate::connect3d::Connect3dError::NotConforming { triangles, .. } = &e else {
+        return MeshError::Invalid(e.to_string());
+    };
+    let sorted = |mut t: [u32; 3]| {
+        t.sort_unstable();
+        t
+    };
+    let wanted: std::collections::HashSet<[u32; 3]> = triangles
+        .iter()
+        .filter_map(|&k| boundary.get(k as usize))
+        .map(|&t| sorted(t))
+        .collect();
+    let mut faces: Vec<u32> = mesh
+        .triangles
+        .iter()
+        .filter(|t| wanted.contains(&sorted(t.nodes)))
+        .map(|t| t.entity.id)
+        .collect();
+    faces.sort_unstable();
+    faces.dedup();
+    MeshError::Refinable {
+        message: e.to_string(),
+        faces,
+    }
+}
+
 /// Meshes volume `vi` again from the thesis's FCC start, after its BCC
 /// start was given up (`frac`: the fraction of its tetrahedra that made
 /// it so, recorded in the report). Nothing of the BCC attempt is in `mesh`
@@ -570,7 +604,7 @@ pub(super) fn mesh_volume(
     rep.odt_s = t3.elapsed().as_secs_f64();
     let t = Instant::now();
     let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
-        .map_err(|e| MeshError::Invalid(e.to_string()))?;
+        .map_err(|e| connect_error(e, &boundary, mesh))?;
     rep.delaunay_s = t.elapsed().as_secs_f64();
     // the objectives of the first tetrahedralization: read here after a BCC
     // start, and handed on to the sliver pass
@@ -652,7 +686,7 @@ pub(super) fn mesh_volume(
                 d2.push(dp);
             }
             let conn = crate::connect3d::connect_volume(&pos2, n_fixed, &local_tris)
-                .map_err(|e| MeshError::Invalid(e.to_string()))?;
+                .map_err(|e| connect_error(e, &boundary, mesh))?;
             rep.recovery_removed += conn.removed;
             movable = (0..pos2.len())
                 .map(|i| i >= n_fixed && conn.kept[i])
