@@ -436,18 +436,22 @@ fn a_unit_square_far_from_the_origin_is_not_refused_as_arealess() {
          [[1e8, 1e8], [100000001, 1e8], [100000001, 100000001], [1e8, 100000001]] }\n",
     );
     let out = dir.path().join("far.msh");
-    let o = run(&[
-        "mesh",
-        s(&input),
-        "-o",
-        s(&out),
-        "--size",
-        "0.1",
-        "--dim",
-        "1",
-    ]);
+    let o = run(&["mesh", s(&input), "-o", s(&out), "--size", "0.1", "-q"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("encloses no area"), "{}", stderr(&o));
+    // the same mesh as at the origin: area 1, well-shaped triangles
+    let m = bubblemesh_io::read(&out).unwrap();
+    assert!(m.triangles.len() > 150, "{} triangles", m.triangles.len());
+    let area: f64 = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let p = t.nodes.map(|i| m.nodes[i as usize].pos);
+            let (u, v) = (p[1] - p[0], p[2] - p[0]);
+            0.5 * (u.x * v.y - u.y * v.x)
+        })
+        .sum();
+    assert!((area - 1.0).abs() < 1e-6, "area {area}");
 }
 
 // --- 11: plugins ---------------------------------------------------------

@@ -254,9 +254,11 @@ pub(crate) fn add_surfaces(specs: &[SurfaceSpec], model: &mut Model) -> Result<(
                     ));
                 }
             }
+            let o = h[0];
             let area2: f64 = (0..h.len())
                 .map(|i| {
                     let (a, b) = (h[i], h[(i + 1) % h.len()]);
+                    let (a, b) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
                     a[0] * b[1] - b[0] * a[1]
                 })
                 .sum();
