@@ -11,7 +11,9 @@
 //! Invariants:
 //! - writing is atomic: the output goes to a temporary file in the target's
 //!   directory which is renamed over the target only once complete; on any
-//!   error the temporary is removed and an existing target is left untouched;
+//!   error the temporary is removed and an existing target is left untouched
+//!   ([`output::OutputSet`] does this for several files at once; an existing
+//!   device or FIFO is written in place, never renamed over);
 //! - every [`IoError`] names the file it is about;
 //! - readers never panic on bad input: truncated, empty or garbage files give
 //!   [`IoError::Parse`] with the reason and, where it makes sense, the line;
