@@ -207,7 +207,7 @@ struct MeshArgs {
     /// bounding-box diagonal).
     #[arg(long, allow_hyphen_values = true)]
     d_max: Option<f64>,
-    /// Print nothing but errors.
+    /// Print nothing but errors and warnings.
     #[arg(short, long)]
     quiet: bool,
     #[command(flatten)]

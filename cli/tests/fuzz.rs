@@ -44,6 +44,7 @@ fn exercise(target: &str, data: &[u8]) -> Result<(), String> {
         "vtu" => {
             let _ = bubblemesh_io::vtu::parse(data);
             let _ = bubblemesh_io::vtu::parse_with_node_data(data);
+            let _ = bubblemesh_io::vtu::parse_with_notes(data);
         }
         "stl" => {
             let _ = bubblemesh_io::stl::parse(data);

@@ -362,6 +362,21 @@ fn quality_warns_naming_the_elements_it_skipped() {
         e.contains("warning") && e.contains("skipped 1") && e.contains("quadrangle"),
         "{e}"
     );
+    // Medit quadrilaterals likewise
+    let m = dir.path().join("q.mesh");
+    std::fs::write(
+        &m,
+        "MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 1\n1 0 0 1\n1 1 0 1\n\
+         0 1 0 1\nQuadrilaterals\n1\n1 2 3 4 1\nEnd\n",
+    )
+    .unwrap();
+    let o = run(&["quality", s(&m)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("warning") && e.contains("skipped 1") && e.contains("Quadrilaterals"),
+        "{e}"
+    );
 }
 
 // --- 7: formats that cannot hold the mesh --------------------------------

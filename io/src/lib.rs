@@ -268,9 +268,13 @@ pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoErro
 /// shows them: a skipped element is never silent.
 pub fn read_with_notes(path: &Path) -> Result<(Mesh, Vec<String>), IoError> {
     let format = Format::from_path(path)?;
-    if format != Format::Msh {
-        return read_as(path, format).map(|m| (m, Vec::new()));
-    }
+    let parse: fn(&[u8]) -> Result<(Mesh, Vec<String>), ParseError> = match format {
+        Format::Msh => msh::parse_with_notes,
+        Format::Vtu => vtu::parse_with_notes,
+        Format::Medit => medit::parse_with_notes,
+        // STL holds triangles only; OBJ polygons are triangulated
+        Format::Stl | Format::Obj => return read_as(path, format).map(|m| (m, Vec::new())),
+    };
     let data = fs::read(path).map_err(|source| IoError::Io {
         path: path.to_path_buf(),
         source,
@@ -278,7 +282,7 @@ pub fn read_with_notes(path: &Path) -> Result<(Mesh, Vec<String>), IoError> {
     if data.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(ParseError::new("the file is empty").with_path(path));
     }
-    msh::parse_with_notes(&data).map_err(|e| e.with_path(path))
+    parse(&data).map_err(|e| e.with_path(path))
 }
 
 /// Reads the mesh at `path` in `format`.

@@ -45,6 +45,21 @@ fn parent_of(path: &Path) -> &Path {
     }
 }
 
+/// Whether two metadata describe the same file (device and inode on Unix;
+/// elsewhere never, the paths are compared instead).
+fn same_file(a: &fs::Metadata, b: &fs::Metadata) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        a.dev() == b.dev() && a.ino() == b.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (a, b);
+        false
+    }
+}
+
 /// What an output path will be.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutputKind {
@@ -78,6 +93,10 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[OutputPath]) -> Result<(), IoE
     let input_ids: Vec<(PathBuf, &Path)> = inputs
         .iter()
         .filter_map(|p| identity(p).ok().map(|id| (id, *p)))
+        .collect();
+    let input_metas: Vec<(fs::Metadata, &Path)> = inputs
+        .iter()
+        .filter_map(|p| fs::metadata(p).ok().map(|m| (m, *p)))
         .collect();
     let mut seen: Vec<(PathBuf, &str)> = Vec::new();
     for o in outputs {
@@ -120,7 +139,15 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[OutputPath]) -> Result<(), IoE
         })?;
         let special = meta.as_ref().is_some_and(|m| !m.is_file() && !m.is_dir());
         if !special {
-            if let Some((_, input)) = input_ids.iter().find(|(i, _)| *i == id) {
+            let by_path = input_ids.iter().find(|(i, _)| *i == id).map(|x| x.1);
+            // another name of the same file (a hard link)
+            let by_inode = meta.as_ref().and_then(|m| {
+                input_metas
+                    .iter()
+                    .find(|(im, _)| same_file(m, im))
+                    .map(|x| x.1)
+            });
+            if let Some(input) = by_path.or(by_inode) {
                 return Err(refuse(
                     o.path,
                     format!(
@@ -444,5 +471,14 @@ mod tests {
             .to_string();
         assert!(e.contains("is a directory"), "{e}");
         check_outputs(&[&input], &[file("-o", &a)]).unwrap();
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.toml");
+            fs::hard_link(&input, &link).unwrap();
+            let e = check_outputs(&[&input], &[file("--report", &link)])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("input"), "{e}");
+        }
     }
 }
