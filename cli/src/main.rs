@@ -1066,7 +1066,7 @@ fn low_quality_faces(mesh: &Mesh) -> Vec<(String, usize, f64)> {
     use std::collections::BTreeMap;
     let mut by: BTreeMap<(u8, u32), (usize, f64)> = BTreeMap::new();
     let mut note = |e: bubblemesh_core::model::EntityRef, q: f64| {
-        if !(q >= POOR_QUALITY) {
+        if q.is_nan() || q < POOR_QUALITY {
             let s = by.entry((e.dim, e.id)).or_insert((0, f64::INFINITY));
             s.0 += 1;
             s.1 = s.1.min(if q.is_nan() { 0.0 } else { q });

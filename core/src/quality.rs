@@ -521,7 +521,8 @@ fn triangle_shape(a: &P3, b: &P3, c: &P3) -> (f64, f64, f64, f64) {
 /// coordinate is not finite.
 fn is_degenerate(la: f64, lb: f64, lc: f64, area: f64) -> bool {
     let longest = la.max(lb).max(lc);
-    !(area > 4.0 * f64::EPSILON * longest * longest) || !(la.min(lb).min(lc) > 0.0)
+    let proper = area > 4.0 * f64::EPSILON * longest * longest && la.min(lb).min(lc) > 0.0;
+    !proper
 }
 
 /// Clips to [0, 1], mapping NaN to 0 (numpy: `nan_to_num(clip(x, 0, 1))`).

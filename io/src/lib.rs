@@ -268,7 +268,8 @@ pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoErro
 /// shows them: a skipped element is never silent.
 pub fn read_with_notes(path: &Path) -> Result<(Mesh, Vec<String>), IoError> {
     let format = Format::from_path(path)?;
-    let parse: fn(&[u8]) -> Result<(Mesh, Vec<String>), ParseError> = match format {
+    type Parse = fn(&[u8]) -> Result<(Mesh, Vec<String>), ParseError>;
+    let parse: Parse = match format {
         Format::Msh => msh::parse_with_notes,
         Format::Vtu => vtu::parse_with_notes,
         Format::Medit => medit::parse_with_notes,
@@ -527,7 +528,6 @@ mod tests {
 
     #[test]
     fn a_body_failing_midway_leaves_the_target_and_no_temporary() {
-        use std::io::Write;
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("x.msh");
         fs::write(&target, "old").unwrap();
