@@ -287,7 +287,9 @@ pub unsafe extern "C" fn bm_spacing_from_callback(
 /// `init` that refuses `BM_ERR_SPACING`.
 fn plugin_error(e: PluginError) -> Error {
     let code = match e {
-        PluginError::Missing { .. } => bm_result::BM_ERR_IO,
+        PluginError::Missing { .. }
+        | PluginError::IsDirectory { .. }
+        | PluginError::NotAFile { .. } => bm_result::BM_ERR_IO,
         PluginError::Init { .. } => bm_result::BM_ERR_SPACING,
         _ => bm_result::BM_ERR_FORMAT,
     };

@@ -27,6 +27,7 @@ use bubblemesh_core::engine::{Integrator, Progress, VolumeLattice};
 use bubblemesh_core::quality::{self, QualityReport};
 use bubblemesh_core::spacing::Expr;
 use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, P3, V3};
+use bubblemesh_io::output::{OutputKind, OutputPath, OutputSet};
 use bubblemesh_plugin_host::{PluginSpacing, PluginSpec};
 use bubblemesh_viz::geometry::{node_spacing, node_spacing_from_edges, Measures};
 use bubblemesh_viz::{ColorBy, Kind, PictureOptions, ViewerOptions};
@@ -45,8 +46,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Mesh a domain file (.toml) into a mesh file (.msh .vtu .stl .obj .mesh)
-    /// or a picture (.svg .png .html).
+    /// Mesh a STEP file (.step .stp) or a domain file (.toml) into a mesh
+    /// file (.msh .vtu .stl .obj .mesh) or a picture (.svg .png .html).
     Mesh(MeshArgs),
     /// Report the quality of any mesh file bubblemesh can read.
     Quality(QualityArgs),
@@ -84,6 +85,37 @@ struct PictureArgs {
     plots: Option<PathBuf>,
 }
 
+/// The most threads `--threads` accepts: 4 per core, at least 64, at most
+/// 1024 (more only cost memory and start-up time; far more make thread
+/// creation fail).
+fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    cores.saturating_mul(4).clamp(64, 1024)
+}
+
+fn parse_threads(s: &str) -> Result<usize, String> {
+    let max = max_threads();
+    let n: u64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a whole number of threads"))?;
+    if n == 0 || n > max as u64 {
+        return Err(format!(
+            "{n} is not in 1..={max} (4 per core, at least 64, at most 1024)"
+        ));
+    }
+    Ok(n as usize)
+}
+
+/// The threads of a run: `--threads`, else one per core.
+fn thread_count(given: Option<usize>) -> Result<usize, String> {
+    Ok(given.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(max_threads())
+    }))
+}
+
 fn parse_view_arg(s: &str) -> Result<V3, String> {
     bubblemesh_viz::view::parse_view(s)
 }
@@ -102,7 +134,8 @@ enum IntegratorArg {
 
 #[derive(Parser)]
 struct MeshArgs {
-    /// The input: a bubblemesh domain file (.toml, see docs/domain-format.md).
+    /// The input: a STEP file (.step, .stp) or a bubblemesh domain file
+    /// (.toml, see docs/domain-format.md).
     input: PathBuf,
     /// The output; the format follows the extension: a mesh (.msh .vtu .stl
     /// .obj .mesh) or a picture (.svg .png, or .html: the browser viewer).
@@ -136,9 +169,10 @@ struct MeshArgs {
     #[arg(long, default_value_t = 600)]
     max_steps: usize,
     /// Threads for stage 2's force and move computation (the result does
-    /// not depend on it). Default: every core; 1 runs single-threaded.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
-    threads: Option<u64>,
+    /// not depend on it). Default: every core; 1 runs single-threaded; at
+    /// most 4 per core (at least 64 allowed, never more than 1024).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    threads: Option<usize>,
     /// Curvature-based spacing (thesis eq. 4.6.1): triangles within EPS of
     /// the geometry (model units). Combines with --size and --view-spacing.
     #[arg(long, value_name = "EPS", allow_hyphen_values = true)]
@@ -173,7 +207,7 @@ struct MeshArgs {
     /// bounding-box diagonal).
     #[arg(long, allow_hyphen_values = true)]
     d_max: Option<f64>,
-    /// Print nothing but errors.
+    /// Print nothing but errors and warnings.
     #[arg(short, long)]
     quiet: bool,
     #[command(flatten)]
@@ -277,6 +311,15 @@ fn read_model(path: &Path) -> Result<Model, String> {
             path.display()
         )),
     }
+}
+
+/// `x` rounded to `digits` significant digits, printed in full (1e-6 model
+/// units stay readable instead of rounding to 0.000000).
+fn significant(x: f64, digits: usize) -> String {
+    let rounded: f64 = format!("{:.*e}", digits.saturating_sub(1), x)
+        .parse()
+        .unwrap_or(x);
+    format!("{rounded}")
 }
 
 /// Parses the spacing expression and checks it at sample points of the model.
@@ -395,14 +438,6 @@ fn build_spacing(
 fn run_mesh(a: MeshArgs) -> Result<(), String> {
     let t0 = Instant::now();
     let kind = output_kind(&a.output)?;
-    // directories for side outputs are made before meshing, so a bad one
-    // fails the run before any output is written
-    for dir in [a.picture.plots.as_ref(), a.frames.as_ref()]
-        .into_iter()
-        .flatten()
-    {
-        ensure_dir(dir)?;
-    }
     if let Some(p) = &a.animate {
         if Kind::from_path(p) != Some(Kind::Html) {
             return Err(format!(
@@ -411,6 +446,19 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             ));
         }
     }
+    let threads = thread_count(a.threads)?;
+    // every output is checked against the inputs and the other outputs, and
+    // its directory made, before meshing; `out` removes what this run made
+    // if it fails
+    let mut inputs: Vec<&Path> = vec![&a.input];
+    inputs.extend(a.plugin_specs.iter().map(|s| s.path.as_path()));
+    inputs.extend(a.plugin_config.as_deref());
+    let mut outputs = vec![file_output("-o", &a.output)];
+    outputs.extend(a.report.as_deref().map(|p| file_output("--report", p)));
+    outputs.extend(a.picture.plots.as_deref().map(|p| dir_output("--plots", p)));
+    outputs.extend(a.frames.as_deref().map(|p| dir_output("--frames", p)));
+    outputs.extend(a.animate.as_deref().map(|p| file_output("--animate", p)));
+    let mut out = prepare_outputs(&inputs, &outputs)?;
     let model = read_model(&a.input)?;
     if let Some(d) = a.dim {
         if d == 0 || d > 3 {
@@ -433,7 +481,10 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             }
             let d = diag / 40.0;
             if !a.quiet {
-                eprintln!("no --size given: using d = {d:.6} (1/40 of the bounding-box diagonal)");
+                eprintln!(
+                    "no --size given: using d = {} (1/40 of the bounding-box diagonal)",
+                    significant(d, 6)
+                );
             }
             format!("{d}")
         }
@@ -470,17 +521,14 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         IntegratorArg::Rk4 => Integrator::Rk4,
     };
     opts.relax.max_steps = a.max_steps.max(1);
-    let threads = a.threads.map_or_else(
-        || std::thread::available_parallelism().map_or(1, |n| n.get()),
-        |n| n as usize,
-    );
     opts.relax.parallel = threads > 1;
     // every rayon loop (relaxation, volume polish) runs on this pool, so
     // `--threads 1` is single-threaded throughout; the global pool is built
-    // once per process, and an error means it was already built
-    let _ = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build_global();
+    // once per process (here, its only builder)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|e| format!("--threads {threads}: cannot start the threads: {e}"))?;
     let bar = progress_bar(a.quiet, &model);
     if let Some(bar) = &bar {
         let b = bar.clone();
@@ -504,9 +552,11 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
     if let Some(f) = plugin_failure() {
         return Err(f);
     }
-    let t_write = Instant::now();
     let title = a.input.display().to_string();
-    write_output(
+    let low = low_quality_faces(&mesh);
+    let t_write = Instant::now();
+    stage_output(
+        &mut out,
         &mesh,
         &a.output,
         kind,
@@ -519,13 +569,14 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         },
     )?;
     let write_s = t_write.elapsed().as_secs_f64();
+    let mut said: Vec<String> = Vec::new();
     if !a.quiet {
         let lattice = if report.timings.lattice_s > 0.0005 {
             format!(", conformal lattice {:.3} s", report.timings.lattice_s)
         } else {
             String::new()
         };
-        eprintln!(
+        said.push(format!(
             "meshed {} in {:.3} s (stage 1 {:.3} s, stage 2 {:.3} s, connection {:.3} s{lattice}); wrote {} in {:.3} s",
             a.input.display(),
             report.timings.total_s,
@@ -534,8 +585,8 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             report.timings.connect_s,
             a.output.display(),
             write_s
-        );
-        eprintln!("{}", q.table());
+        ));
+        said.push(q.table());
     }
     if let Some(path) = &a.report {
         let json = serde_json::json!({
@@ -550,28 +601,43 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             "time_write_s": write_s,
         });
         let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-        write_atomically(path, text.as_bytes())?;
+        stage_bytes(&mut out, path, text.as_bytes())?;
     }
     if let Some(dir) = &a.picture.plots {
-        write_plots(dir, &mesh, Some(&report), Some(spacing), &q, &title)?;
+        stage_plots(
+            &mut out,
+            dir,
+            &mesh,
+            Some(&report),
+            Some(spacing),
+            &q,
+            &title,
+        )?;
         if !a.quiet {
-            eprintln!("wrote plots into {}", dir.display());
+            said.push(format!("wrote plots into {}", dir.display()));
         }
     }
     if a.frames.is_some() || a.animate.is_some() {
         let frames = settle_frames(&model, spacing, &opts, &mesh, &report, a.quiet)?;
         let pictures = frame_pictures(&model, spacing, &a.picture, &frames)?;
         if let Some(dir) = &a.frames {
-            ensure_dir(dir)?;
             for (k, (f, svg)) in frames.iter().zip(&pictures).enumerate() {
-                write_atomically(&dir.join(format!("frame_{k:03}.svg")), svg.svg.as_bytes())?;
+                stage_bytes(
+                    &mut out,
+                    &dir.join(format!("frame_{k:03}.svg")),
+                    svg.svg.as_bytes(),
+                )?;
                 let png =
                     bubblemesh_viz::png(&f.mesh, &frame_options(&model, spacing, &a.picture, f))
                         .map_err(|e| e.to_string())?;
-                write_atomically(&dir.join(format!("frame_{k:03}.png")), &png)?;
+                stage_bytes(&mut out, &dir.join(format!("frame_{k:03}.png")), &png)?;
             }
             if !a.quiet {
-                eprintln!("wrote {} frames into {}", frames.len(), dir.display());
+                said.push(format!(
+                    "wrote {} frames into {}",
+                    frames.len(),
+                    dir.display()
+                ));
             }
         }
         if let Some(path) = &a.animate {
@@ -586,12 +652,17 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
                 ],
                 &pictures,
             );
-            write_atomically(path, page.as_bytes())?;
+            stage_bytes(&mut out, path, page.as_bytes())?;
             if !a.quiet {
-                eprintln!("wrote the animation {}", path.display());
+                said.push(format!("wrote the animation {}", path.display()));
             }
         }
     }
+    out.commit().map_err(|e| format!("cannot write: {e}"))?;
+    for line in said {
+        eprintln!("{line}");
+    }
+    warn_low_quality(&low);
     Ok(())
 }
 
@@ -605,9 +676,12 @@ fn run_draw(a: DrawArgs) -> Result<(), String> {
             ))
         }
     };
-    let mesh = bubblemesh_io::read(&a.mesh).map_err(|e| e.to_string())?;
+    let mut outputs = vec![file_output("-o", &a.output)];
+    outputs.extend(a.picture.plots.as_deref().map(|p| dir_output("--plots", p)));
+    let mut out = prepare_outputs(&[&a.mesh], &outputs)?;
+    let mesh = read_mesh(&a.mesh)?;
     let spacing = match &a.size {
-        Some(s) => Some(Expr::parse(s).map_err(|e| e.to_string())?),
+        Some(s) => Some(parse_expr(s)?),
         None => None,
     };
     let q = quality::analyse(&mesh, spacing.as_ref().map(|s| s as &dyn Spacing));
@@ -616,7 +690,8 @@ fn run_draw(a: DrawArgs) -> Result<(), String> {
     if let Some(s) = &a.size {
         notes.push(format!("spacing d = {s}"));
     }
-    write_output(
+    stage_output(
+        &mut out,
         &mesh,
         &a.output,
         Some(kind),
@@ -629,7 +704,8 @@ fn run_draw(a: DrawArgs) -> Result<(), String> {
         },
     )?;
     if let Some(dir) = &a.picture.plots {
-        write_plots(
+        stage_plots(
+            &mut out,
             dir,
             &mesh,
             None,
@@ -638,7 +714,7 @@ fn run_draw(a: DrawArgs) -> Result<(), String> {
             &title,
         )?;
     }
-    Ok(())
+    out.commit().map_err(|e| format!("cannot write: {e}"))
 }
 
 /// Whether OUTPUT is a picture (`Some`) or a mesh file (`None`); an
@@ -686,9 +762,10 @@ fn color_by(c: ColorArg) -> ColorBy {
     }
 }
 
-/// Writes the mesh to `path`: a mesh file through `bubblemesh_io`, or a
-/// picture or viewer page through `bubblemesh_viz`; whole or not at all.
-fn write_output(
+/// Stages the mesh as `path` in `out`: a mesh file through
+/// `bubblemesh_io`, or a picture or viewer page through `bubblemesh_viz`.
+fn stage_output(
+    out: &mut OutputSet,
     mesh: &Mesh,
     path: &Path,
     kind: Option<Kind>,
@@ -696,7 +773,22 @@ fn write_output(
     d: &Drawing,
 ) -> Result<(), String> {
     let Some(kind) = kind else {
-        return bubblemesh_io::write(mesh, path).map_err(|e| e.to_string());
+        let format = bubblemesh_io::Format::from_path(path).map_err(|e| e.to_string())?;
+        if matches!(
+            format,
+            bubblemesh_io::Format::Stl | bubblemesh_io::Format::Obj
+        ) && bubblemesh_io::surface_triangles(mesh).is_empty()
+        {
+            return Err(format!(
+                "{}: the mesh has no triangles ({} nodes, {} edge elements): .{} holds \
+                 triangles only; use .msh, .vtu or .mesh for edges",
+                path.display(),
+                mesh.nodes.len(),
+                mesh.lines.len(),
+                format.extension()
+            ));
+        }
+        return bubblemesh_io::stage_as(out, mesh, path, format).map_err(|e| e.to_string());
     };
     let fail = |e: bubblemesh_viz::VizError| format!("{}: {e}", path.display());
     let bytes = match kind {
@@ -726,13 +818,13 @@ fn write_output(
             .into_bytes()
         }
     };
-    bubblemesh_viz::write_atomic(path, &bytes)
-        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    stage_bytes(out, path, &bytes)
 }
 
-/// Writes the energy history (with a report) and the histograms as SVG
-/// into `dir`, with an index.html showing them and the quality table.
-fn write_plots(
+/// Stages the energy history (with a report) and the histograms as SVG
+/// in `dir`, with an index.html showing them and the quality table.
+fn stage_plots(
+    out: &mut OutputSet,
     dir: &Path,
     mesh: &Mesh,
     report: Option<&Report>,
@@ -741,7 +833,6 @@ fn write_plots(
     title: &str,
 ) -> Result<(), String> {
     use bubblemesh_viz::plots;
-    ensure_dir(dir)?;
     let mut files: Vec<(String, String)> = Vec::new();
     if let Some(r) = report {
         let faces: Vec<plots::FaceEnergy> = r
@@ -766,13 +857,13 @@ fn write_plots(
         t = bubblemesh_viz::picture::xml_escape(title)
     );
     for (stem, svg) in &files {
-        write_atomically(&dir.join(format!("{stem}.svg")), svg.as_bytes())?;
+        stage_bytes(out, &dir.join(format!("{stem}.svg")), svg.as_bytes())?;
         index.push_str(&format!("<p><img src=\"{stem}.svg\" alt=\"{stem}\"></p>\n"));
     }
     index.push_str("<h2>Quality</h2>\n");
     index.push_str(&bubblemesh_viz::html::quality_table(q));
     index.push_str("</body></html>\n");
-    write_atomically(&dir.join("index.html"), index.as_bytes())
+    stage_bytes(out, &dir.join("index.html"), index.as_bytes())
 }
 
 /// One picture of the settling simulation.
@@ -892,30 +983,128 @@ fn frame_pictures(
 }
 
 fn run_quality(a: QualityArgs) -> Result<(), String> {
-    let mesh = bubblemesh_io::read(&a.mesh).map_err(|e| e.to_string())?;
+    let outputs: Vec<OutputPath> = a
+        .json
+        .as_deref()
+        .map(|p| file_output("--json", p))
+        .into_iter()
+        .collect();
+    let mut out = prepare_outputs(&[&a.mesh], &outputs)?;
+    let mesh = read_mesh(&a.mesh)?;
     let spacing = match &a.size {
-        Some(s) => Some(Expr::parse(s).map_err(|e| e.to_string())?),
+        Some(s) => Some(parse_expr(s)?),
         None => None,
     };
     let q = quality::analyse(&mesh, spacing.as_ref().map(|s| s as &dyn Spacing));
-    println!("{}", q.table());
     if let Some(path) = &a.json {
         let text = serde_json::to_string_pretty(&q).map_err(|e| e.to_string())?;
-        write_atomically(path, text.as_bytes())?;
+        stage_bytes(&mut out, path, text.as_bytes())?;
     }
+    out.commit().map_err(|e| format!("cannot write: {e}"))?;
+    println!("{}", q.table());
+    warn_low_quality(&low_quality_faces(&mesh));
     Ok(())
 }
 
-/// Creates `dir` (and its parents) unless it exists.
-fn ensure_dir(dir: &Path) -> Result<(), String> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| format!("{}: cannot create the directory: {e}", dir.display()))
+/// Reads a mesh file, printing on stderr what the reader skipped.
+fn read_mesh(path: &Path) -> Result<Mesh, String> {
+    let (mesh, notes) = bubblemesh_io::read_with_notes(path).map_err(|e| e.to_string())?;
+    for n in notes {
+        eprintln!("warning: {}: {n}", path.display());
+    }
+    Ok(mesh)
 }
 
-/// Writes a file whole or not at all (temporary file, then rename).
-fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    bubblemesh_viz::write_atomic(path, bytes)
-        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
+/// Parses a --size expression.
+fn parse_expr(text: &str) -> Result<Expr, String> {
+    Expr::parse(text).map_err(|e| e.to_string())
+}
+
+/// A file output of the command line.
+fn file_output<'a>(label: &'a str, path: &'a Path) -> OutputPath<'a> {
+    OutputPath {
+        label,
+        path,
+        kind: OutputKind::File,
+    }
+}
+
+/// A directory output of the command line.
+fn dir_output<'a>(label: &'a str, path: &'a Path) -> OutputPath<'a> {
+    OutputPath {
+        label,
+        path,
+        kind: OutputKind::Dir,
+    }
+}
+
+/// Checks the outputs against the inputs and each other and makes the
+/// output directories; the returned set stages the files and removes all
+/// this run made unless committed.
+fn prepare_outputs(inputs: &[&Path], outputs: &[OutputPath]) -> Result<OutputSet, String> {
+    bubblemesh_io::output::check_outputs(inputs, outputs).map_err(|e| e.to_string())?;
+    let mut out = OutputSet::new();
+    for o in outputs.iter().filter(|o| o.kind == OutputKind::Dir) {
+        out.dir(o.path)
+            .map_err(|e| format!("{e} (cannot create the directory)"))?;
+    }
+    Ok(out)
+}
+
+/// Stages a file of this run (written at commit).
+fn stage_bytes(out: &mut OutputSet, path: &Path, bytes: &[u8]) -> Result<(), String> {
+    out.bytes(path, bytes)
+        .map_err(|e| format!("cannot write: {e}"))
+}
+
+/// Elements of radius ratio below this are reported on stderr.
+const POOR_QUALITY: f64 = 0.01;
+
+/// Per entity with elements of radius ratio below [`POOR_QUALITY`]: its
+/// description, how many and the worst ratio.
+fn low_quality_faces(mesh: &Mesh) -> Vec<(String, usize, f64)> {
+    use std::collections::BTreeMap;
+    let mut by: BTreeMap<(u8, u32), (usize, f64)> = BTreeMap::new();
+    let mut note = |e: bubblemesh_core::model::EntityRef, q: f64| {
+        if q.is_nan() || q < POOR_QUALITY {
+            let s = by.entry((e.dim, e.id)).or_insert((0, f64::INFINITY));
+            s.0 += 1;
+            s.1 = s.1.min(if q.is_nan() { 0.0 } else { q });
+        }
+    };
+    for t in &mesh.triangles {
+        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        note(
+            t.entity,
+            bubblemesh_viz::geometry::triangle_q(&p[0], &p[1], &p[2]),
+        );
+    }
+    for t in &mesh.tetrahedra {
+        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        note(t.entity, bubblemesh_viz::geometry::tet_q(&p));
+    }
+    by.into_iter()
+        .map(|((dim, id), (n, worst))| {
+            let kind = if dim == 3 { "volume" } else { "face" };
+            let name = mesh
+                .entities
+                .iter()
+                .find(|e| e.entity.dim == dim && e.entity.id == id)
+                .and_then(|e| e.name.clone())
+                .map(|n| format!(" '{n}'"))
+                .unwrap_or_default();
+            (format!("{kind} {id}{name}"), n, worst)
+        })
+        .collect()
+}
+
+fn warn_low_quality(low: &[(String, usize, f64)]) {
+    for (what, n, worst) in low {
+        eprintln!(
+            "warning: {what}: {n} element(s) of radius ratio below {POOR_QUALITY} (worst {worst:.2e}); \
+             the geometry is thinner there than the spacing resolves"
+        );
+    }
 }
 
 /// A progress bar on stderr for interactive runs of non-trivial models.

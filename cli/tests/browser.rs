@@ -1,6 +1,7 @@
 //! `-o mesh.html` in headless Chromium on a real mesh: the page renders
 //! (the screenshot is not blank) and reports the mesh's element count.
-//! `.ci/run` installs Chromium; set BUBBLEMESH_SKIP_BROWSER=1 to skip.
+//! `.ci/run` installs Chromium; without it the test skips (fails under CI);
+//! set BUBBLEMESH_SKIP_BROWSER=1 to skip.
 
 #[path = "../../viz/tests/common/chromium.rs"]
 mod chromium;

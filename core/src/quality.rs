@@ -69,6 +69,9 @@ pub struct TriangleQuality {
     pub pct_min_angle_lt20: f64,
     /// Percentage (0–100) of triangles whose smallest angle is < 30°.
     pub pct_min_angle_lt30: f64,
+    /// Triangles with coincident or collinear corners (counted with angles
+    /// 0° and 180°).
+    pub degenerate: usize,
     /// Number of interior vertices (see the module documentation).
     pub n_interior_vertices: usize,
     /// Valence → number of interior vertices with that valence.
@@ -248,6 +251,13 @@ impl QualityReport {
                 t.pct_min_angle_lt20,
                 t.pct_min_angle_lt30
             );
+            if t.degenerate > 0 {
+                let _ = writeln!(
+                    s,
+                    "{:<11} {} degenerate triangle(s) (coincident or collinear corners)",
+                    "  warning", t.degenerate
+                );
+            }
             let v6 = t
                 .valence6_fraction
                 .map_or("-".to_string(), |f| format!("{:.1}%", 100.0 * f));
@@ -496,9 +506,23 @@ fn triangle_shape(a: &P3, b: &P3, c: &P3) -> (f64, f64, f64, f64) {
     let ac = std::f64::consts::PI - aa - ab_;
     let q = (lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc);
     let q = clip01(q);
-    let amin = aa.min(ab_).min(ac) * DEG;
-    let amax = aa.max(ab_).max(ac) * DEG;
+    if is_degenerate(la, lb, lc, area) {
+        // coincident or collinear corners: no meaningful third angle (π
+        // minus two angles of π each gave −180°); report the limit shape
+        return (q, 0.0, 180.0, area);
+    }
+    let amin = (aa.min(ab_).min(ac) * DEG).clamp(0.0, 180.0);
+    let amax = (aa.max(ab_).max(ac) * DEG).clamp(0.0, 180.0);
     (q, amin, amax, area)
+}
+
+/// A triangle of edge lengths `la lb lc` and `area` is degenerate when two
+/// corners coincide or all three are collinear (to rounding), or a
+/// coordinate is not finite.
+fn is_degenerate(la: f64, lb: f64, lc: f64, area: f64) -> bool {
+    let longest = la.max(lb).max(lc);
+    let proper = area > 4.0 * f64::EPSILON * longest * longest && la.min(lb).min(lc) > 0.0;
+    !proper
 }
 
 /// Clips to [0, 1], mapping NaN to 0 (numpy: `nan_to_num(clip(x, 0, 1))`).
@@ -516,9 +540,12 @@ fn triangle_quality(pos: &[P3], mesh: &Mesh, edges: &[(u64, u32)]) -> TriangleQu
     let (mut amin_min, mut amin_sum, mut amax_max, mut amax_sum) =
         (f64::INFINITY, 0.0, f64::NEG_INFINITY, 0.0);
     let (mut lt20, mut lt30, mut area) = (0usize, 0usize, 0.0);
+    let mut degenerate = 0usize;
     for t in &mesh.triangles {
         let [a, b, c] = t.nodes.map(|i| &pos[i as usize]);
         let (qq, amin, amax, ar) = triangle_shape(a, b, c);
+        let (la, lb, lc) = ((c - b).norm(), (a - c).norm(), (b - a).norm());
+        degenerate += is_degenerate(la, lb, lc, ar) as usize;
         q.push(qq);
         amin_min = amin_min.min(amin);
         amax_max = amax_max.max(amax);
@@ -573,6 +600,7 @@ fn triangle_quality(pos: &[P3], mesh: &Mesh, edges: &[(u64, u32)]) -> TriangleQu
         max_angle_mean: amax_sum / n as f64,
         pct_min_angle_lt20: pct(lt20, n),
         pct_min_angle_lt30: pct(lt30, n),
+        degenerate,
         n_interior_vertices: n_int,
         valence_hist: hist,
         valence6_fraction: (n_int > 0).then(|| n6 as f64 / n_int as f64),
@@ -1010,5 +1038,29 @@ mod tests {
         let dt = t0.elapsed();
         println!("{} triangles in {:?}\n{}", m.triangles.len(), dt, r.table());
         assert!(dt.as_secs_f64() < 1.0);
+    }
+
+    /// Triangles with coincident corners report angles 0° and 180° and
+    /// are counted, never a negative angle.
+    #[test]
+    fn degenerate_triangles_report_sane_angles_and_a_count() {
+        let m = tri_mesh(
+            &[
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.3, 0.7, 0.0],
+            ],
+            &[[0, 1, 2], [3, 3, 3], [0, 0, 1], [1, 3, 2]],
+        );
+        let r = analyse(&m, None);
+        let t = r.triangles.as_ref().unwrap();
+        assert_eq!(t.degenerate, 3);
+        assert_eq!(t.min_angle_min, 0.0);
+        assert_eq!(t.max_angle_max, 180.0);
+        assert!(t.min_angle_mean >= 0.0);
+        let table = r.table();
+        assert!(!table.contains("-180"), "{table}");
+        assert!(table.contains("3 degenerate"), "{table}");
     }
 }

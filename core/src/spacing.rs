@@ -91,6 +91,17 @@ exmex::literal_matcher_from_pattern!(SciNumber, r"^(\.?[0-9]+(\.[0-9]*)?([eE][+-
 
 type Flat = exmex::FlatEx<f64, exmex::FloatOpsFactory<f64>, SciNumber>;
 
+/// The expression as quoted in a message: whole if short, else its start.
+fn clip_expr(text: &str) -> String {
+    const MAX: usize = 80;
+    if text.chars().count() <= MAX {
+        text.to_string()
+    } else {
+        let head: String = text.chars().take(MAX).collect();
+        format!("{head}…")
+    }
+}
+
 /// d(x, y, z) given as an expression parsed at run time with `exmex`.
 ///
 /// Syntax: numbers (also `1e-3`), `x y z`, `+ - * / ^` (also `**`), parentheses, and the
@@ -111,15 +122,150 @@ impl std::fmt::Debug for Expr {
     }
 }
 
+/// The longest expression accepted, in characters (parsing time grows
+/// faster than the length; a spacing never needs this many).
+pub const MAX_EXPR_CHARS: usize = 10_000;
+
+/// Functions of the expression language (exmex's float operators).
+const FUNCTIONS: &[&str] = &[
+    "sqrt", "abs", "min", "max", "exp", "ln", "log", "log2", "log10", "sin", "cos", "tan", "asin",
+    "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh", "atanh", "floor", "round",
+    "ceil", "trunc", "fract", "signum", "cbrt",
+];
+
+/// Named constants of the expression language.
+const CONSTANTS: &[&str] = &["PI", "π", "E", "e", "TAU", "τ"];
+
+/// Checks the words and characters of an expression before exmex sees it,
+/// so that a mistake gets a message in the user's terms (unknown function,
+/// invalid number, unbalanced parenthesis) instead of the parser's
+/// internals. Returns the reason, or `UnknownVariable`'s name as `Err(Ok)`.
+fn precheck(text: &str) -> Result<(), Result<String, String>> {
+    let chars: Vec<char> = text.chars().collect();
+    if chars.len() > MAX_EXPR_CHARS {
+        return Err(Err(format!(
+            "it is {} characters long; at most {MAX_EXPR_CHARS} are accepted",
+            chars.len()
+        )));
+    }
+    if chars.iter().all(|c| c.is_whitespace()) {
+        return Err(Err("the expression is empty".into()));
+    }
+    let word_char = |c: char| c.is_alphanumeric() || c == '_';
+    let (n, mut i, mut depth) = (chars.len(), 0usize, 0i64);
+    while i < n {
+        let c = chars[i];
+        if c.is_whitespace() {
+            i += 1;
+        } else if c.is_ascii_digit() || (c == '.' && i + 1 < n && chars[i + 1].is_ascii_digit()) {
+            let start = i;
+            while i < n && chars[i].is_ascii_digit() {
+                i += 1;
+            }
+            if i < n && chars[i] == '.' {
+                i += 1;
+                while i < n && chars[i].is_ascii_digit() {
+                    i += 1;
+                }
+            }
+            if i < n && (chars[i] == 'e' || chars[i] == 'E') {
+                let mut j = i + 1;
+                if j < n && (chars[j] == '+' || chars[j] == '-') {
+                    j += 1;
+                }
+                if j < n && chars[j].is_ascii_digit() {
+                    i = j;
+                    while i < n && chars[i].is_ascii_digit() {
+                        i += 1;
+                    }
+                }
+            }
+            if i < n && (word_char(chars[i]) || chars[i] == '.') {
+                while i < n && (word_char(chars[i]) || chars[i] == '.') {
+                    i += 1;
+                }
+                let word: String = chars[start..i].iter().collect();
+                return Err(Err(format!(
+                    "invalid number '{word}' (numbers are decimal, like 0.5, 2 or 1e-3)"
+                )));
+            }
+        } else if word_char(c) {
+            let start = i;
+            while i < n && word_char(chars[i]) {
+                i += 1;
+            }
+            let word: String = chars[start..i].iter().collect();
+            let called = chars[i..].iter().find(|c| !c.is_whitespace()) == Some(&'(');
+            if FUNCTIONS.contains(&word.as_str()) {
+                if !called {
+                    return Err(Err(format!(
+                        "function '{word}' needs its argument in parentheses, like {word}(x)"
+                    )));
+                }
+            } else if called {
+                return Err(Err(format!(
+                    "unknown function '{word}' (known: {})",
+                    FUNCTIONS.join(" ")
+                )));
+            } else if !matches!(word.as_str(), "x" | "y" | "z")
+                && !CONSTANTS.contains(&word.as_str())
+            {
+                return Err(Ok(word));
+            }
+        } else {
+            match c {
+                '(' => depth += 1,
+                ')' => {
+                    depth -= 1;
+                    if depth < 0 {
+                        return Err(Err(format!("')' at character {} has no '('", i + 1)));
+                    }
+                }
+                '+' | '-' | '*' | '/' | '^' | ',' => {}
+                other => {
+                    return Err(Err(format!(
+                        "unexpected character '{other}' at character {}",
+                        i + 1
+                    )))
+                }
+            }
+            i += 1;
+        }
+    }
+    if depth > 0 {
+        return Err(Err(format!("{depth} '(' without ')'")));
+    }
+    Ok(())
+}
+
 impl Expr {
     /// Parses `text`. The result is checked at the origin only for
     /// parse-level errors; positivity is checked where it is evaluated.
     pub fn parse(text: &str) -> Result<Self, ExprError> {
         use exmex::prelude::*;
+        let parse_err = |reason: String| ExprError::Parse {
+            expr: clip_expr(text),
+            reason,
+        };
+        match precheck(text) {
+            Ok(()) => {}
+            Err(Ok(var)) => {
+                return Err(ExprError::UnknownVariable {
+                    expr: clip_expr(text),
+                    var,
+                })
+            }
+            Err(Err(reason)) => return Err(parse_err(reason)),
+        }
         let normalised = text.replace("**", "^");
-        let flat = Flat::parse(&normalised).map_err(|e| ExprError::Parse {
-            expr: text.to_string(),
-            reason: e.to_string(),
+        // exmex's own messages describe its internals ("we have 0 ops and 2
+        // nodes"); the words are checked above, so what is left is the form
+        let flat = Flat::parse(&normalised).map_err(|_| {
+            parse_err(
+                "it is not a well-formed expression (an operator without an operand, two \
+                 values without an operator between them, or empty parentheses)"
+                    .into(),
+            )
         })?;
         let mut slots = Vec::new();
         for v in flat.var_names() {
@@ -295,5 +441,57 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("0.25"), "{err}");
+    }
+
+    /// Mistakes are named in the user's terms, never in the parser's
+    /// internals ("wlog", "we have 0 ops and 2 nodes").
+    #[test]
+    fn parse_errors_name_the_mistake_not_parser_internals() {
+        let msg = |t: &str| Expr::parse(t).unwrap_err().to_string();
+        let e = msg("foo(x)");
+        assert!(e.contains("unknown function 'foo'"), "{e}");
+        let e = msg("0x10");
+        assert!(e.contains("invalid number '0x10'"), "{e}");
+        let e = msg("0.1 + 2.5.3");
+        assert!(e.contains("invalid number '2.5.3'"), "{e}");
+        let e = msg("0.1 + )x(");
+        assert!(e.contains("has no '('"), "{e}");
+        let e = msg("0.1 $ x");
+        assert!(e.contains("unexpected character '$'"), "{e}");
+        for t in ["foo(x)", "0x10", "0.1 +", "* 2", "()", "0.1 0.2", "sin", ""] {
+            let e = msg(t);
+            assert!(!e.contains("wlog") && !e.contains(" ops "), "{t}: {e}");
+        }
+        // what the parser does take still parses
+        for t in [
+            "log10(x + 1) + 0.1",
+            "atan2(y, x) + 4",
+            "PI*0.01",
+            "e^-2",
+            ".5*x+1",
+        ] {
+            Expr::parse(t).unwrap_or_else(|e| panic!("{t}: {e}"));
+        }
+    }
+
+    /// A 29,000-term expression used to take minutes (parsing grows faster
+    /// than its length); it is refused at once with the limit.
+    #[test]
+    fn an_overlong_expression_is_refused_quickly() {
+        let text = format!("0.05{}", "+0*x".repeat(29_000));
+        let t = std::time::Instant::now();
+        let e = Expr::parse(&text).unwrap_err().to_string();
+        assert!(t.elapsed().as_secs_f64() < 1.0);
+        assert!(e.contains("at most 10000"), "{e}");
+        assert!(
+            e.len() < 400,
+            "the message quotes the whole expression: {} bytes",
+            e.len()
+        );
+        // below the limit it parses in reasonable time
+        let text = format!("0.05{}", "+0*x".repeat(2_000));
+        let t = std::time::Instant::now();
+        Expr::parse(&text).unwrap();
+        assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
     }
 }

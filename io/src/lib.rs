@@ -11,7 +11,9 @@
 //! Invariants:
 //! - writing is atomic: the output goes to a temporary file in the target's
 //!   directory which is renamed over the target only once complete; on any
-//!   error the temporary is removed and an existing target is left untouched;
+//!   error the temporary is removed and an existing target is left untouched
+//!   ([`output::OutputSet`] does this for several files at once; an existing
+//!   device or FIFO is written in place, never renamed over);
 //! - every [`IoError`] names the file it is about;
 //! - readers never panic on bad input: truncated, empty or garbage files give
 //!   [`IoError::Parse`] with the reason and, where it makes sense, the line;
@@ -23,10 +25,9 @@
 
 use std::collections::{BTreeMap, HashSet};
 use std::fmt;
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter};
+use std::fs;
+use std::io;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use bubblemesh_core::mesh::{Element, EntityInfo, Mesh};
 use bubblemesh_core::model::EntityRef;
@@ -35,6 +36,7 @@ use bubblemesh_core::P3;
 pub mod medit;
 pub mod msh;
 pub mod obj;
+pub mod output;
 pub mod stl;
 pub mod vtu;
 
@@ -69,6 +71,10 @@ pub enum IoError {
     /// coordinate is not finite, ...).
     #[error("{}: cannot write the mesh: {reason}", .path.display())]
     InvalidMesh { path: PathBuf, reason: String },
+    /// An output path that cannot be used (it is an input, a directory,
+    /// another output, ...): see [`output::check_outputs`].
+    #[error("{}: {reason}", .path.display())]
+    Output { path: PathBuf, reason: String },
 }
 
 fn line_suffix(line: Option<usize>) -> String {
@@ -188,16 +194,34 @@ pub fn write(mesh: &Mesh, path: &Path) -> Result<(), IoError> {
 
 /// Writes `mesh` to `path` in `format`, atomically (see the crate invariants).
 pub fn write_as(mesh: &Mesh, path: &Path, format: Format) -> Result<(), IoError> {
+    let mut out = output::OutputSet::new();
+    stage_as(&mut out, mesh, path, format)?;
+    out.commit()
+}
+
+/// Stages `mesh` as the file `path` (format of its extension) in `out`,
+/// written when `out` commits.
+pub fn stage(out: &mut output::OutputSet, mesh: &Mesh, path: &Path) -> Result<(), IoError> {
+    stage_as(out, mesh, path, Format::from_path(path)?)
+}
+
+/// Stages `mesh` as the file `path` in `format` in `out`.
+pub fn stage_as(
+    out: &mut output::OutputSet,
+    mesh: &Mesh,
+    path: &Path,
+    format: Format,
+) -> Result<(), IoError> {
     validate(mesh).map_err(|reason| IoError::InvalidMesh {
         path: path.to_path_buf(),
         reason,
     })?;
-    write_atomic(path, |w| match format {
-        Format::Msh => msh::write_to(mesh, w),
-        Format::Vtu => vtu::write_to(mesh, w),
-        Format::Stl => stl::write_to(mesh, w),
-        Format::Obj => obj::write_to(mesh, w),
-        Format::Medit => medit::write_to(mesh, w),
+    out.file(path, |mut w| match format {
+        Format::Msh => msh::write_to(mesh, &mut w),
+        Format::Vtu => vtu::write_to(mesh, &mut w),
+        Format::Stl => stl::write_to(mesh, &mut w),
+        Format::Obj => obj::write_to(mesh, &mut w),
+        Format::Medit => medit::write_to(mesh, &mut w),
     })
 }
 
@@ -227,6 +251,30 @@ pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoErro
         Format::Msh => msh::parse_with_node_data,
         Format::Vtu => vtu::parse_with_node_data,
         _ => return read_as(path, format).map(|m| (m, Vec::new())),
+    };
+    let data = fs::read(path).map_err(|source| IoError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if data.iter().all(|b| b.is_ascii_whitespace()) {
+        return Err(ParseError::new("the file is empty").with_path(path));
+    }
+    parse(&data).map_err(|e| e.with_path(path))
+}
+
+/// Reads the mesh at `path` in the format of its extension, with a note
+/// per kind of element the reader skipped (quadrangles, hexahedra,
+/// second-order elements: element types it does not keep). The caller
+/// shows them: a skipped element is never silent.
+pub fn read_with_notes(path: &Path) -> Result<(Mesh, Vec<String>), IoError> {
+    let format = Format::from_path(path)?;
+    type Parse = fn(&[u8]) -> Result<(Mesh, Vec<String>), ParseError>;
+    let parse: Parse = match format {
+        Format::Msh => msh::parse_with_notes,
+        Format::Vtu => vtu::parse_with_notes,
+        Format::Medit => medit::parse_with_notes,
+        // STL holds triangles only; OBJ polygons are triangulated
+        Format::Stl | Format::Obj => return read_as(path, format).map(|m| (m, Vec::new())),
     };
     let data = fs::read(path).map_err(|source| IoError::Io {
         path: path.to_path_buf(),
@@ -305,66 +353,6 @@ fn validate(mesh: &Mesh) -> Result<(), String> {
             ));
         }
     }
-    Ok(())
-}
-
-/// Removes the temporary file on drop unless disarmed.
-struct TempGuard {
-    path: PathBuf,
-    armed: bool,
-}
-
-impl Drop for TempGuard {
-    fn drop(&mut self) {
-        if self.armed {
-            let _ = fs::remove_file(&self.path);
-        }
-    }
-}
-
-/// Runs `body` on a buffered temporary file next to `path`, then renames it
-/// over `path`. Nothing is left behind on failure.
-fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
-) -> Result<(), IoError> {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let err = |source: io::Error| IoError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let name = path.file_name().ok_or_else(|| {
-        err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "not a file name",
-        ))
-    })?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let tmp = dir.join(format!(
-        ".{}.{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let file = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&tmp)
-        .map_err(err)?;
-    let mut guard = TempGuard {
-        path: tmp,
-        armed: true,
-    };
-    let mut w = BufWriter::with_capacity(1 << 16, file);
-    body(&mut w).map_err(err)?;
-    let file = w.into_inner().map_err(|e| err(e.into_error()))?;
-    file.sync_all().map_err(err)?;
-    drop(file);
-    fs::rename(&guard.path, path).map_err(err)?;
-    guard.armed = false;
     Ok(())
 }
 
@@ -540,15 +528,17 @@ mod tests {
 
     #[test]
     fn a_body_failing_midway_leaves_the_target_and_no_temporary() {
-        use std::io::Write;
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("x.msh");
         fs::write(&target, "old").unwrap();
-        let err = write_atomic(&target, |w| {
-            w.write_all(&[b'a'; 200_000])?;
-            Err(io::Error::other("boom"))
-        })
-        .unwrap_err();
+        let mut out = output::OutputSet::new();
+        let err = out
+            .file(&target, |w| {
+                w.write_all(&[b'a'; 200_000])?;
+                Err(io::Error::other("boom"))
+            })
+            .unwrap_err();
+        drop(out);
         let msg = err.to_string();
         assert!(msg.contains("x.msh") && msg.contains("boom"), "{msg}");
         assert_eq!(fs::read_to_string(&target).unwrap(), "old");

@@ -8,8 +8,8 @@
 //! meshio expects).
 //!
 //! Read: the sections above (2D files too, with z = 0); `Quadrilaterals`,
-//! `Hexahedra`, `Prisms`, `Pyramids`, normals, tangents, ridges and required
-//! entities are skipped. Elements are on entity (element dim, ref − 1); nodes
+//! `Hexahedra`, `Prisms`, `Pyramids` (with a note, see [`parse_with_notes`]),
+//! normals, tangents, ridges and required entities are skipped. Elements are on entity (element dim, ref − 1); nodes
 //! listed in `Corners` on vertex (0, ref − 1), the others inferred (see the
 //! crate documentation).
 
@@ -89,6 +89,13 @@ fn id_of(r: i64) -> u32 {
 
 /// Parses Medit ASCII.
 pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
+    parse_with_notes(data).map(|r| r.0)
+}
+
+/// Parses Medit ASCII, with a note per kind of element skipped
+/// (quadrilaterals, pyramids, prisms, hexahedra).
+pub fn parse_with_notes(data: &[u8]) -> Result<(Mesh, Vec<String>), ParseError> {
+    let mut notes: Vec<String> = Vec::new();
     let s = as_text(data);
     let mut t = Text::new(&s, Some('#'));
     let mut dim: Option<usize> = None;
@@ -171,10 +178,25 @@ pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
                 let d = dim.ok_or_else(|| t.err(format!("'{kw}' before 'Dimension'")))?;
                 records::<f64>(&mut t, kw, d, |_, _| Ok(()))?
             }
-            "Quadrilaterals" => records::<i64>(&mut t, kw, 5, |_, _| Ok(()))?,
-            "Pyramids" => records::<i64>(&mut t, kw, 6, |_, _| Ok(()))?,
-            "Prisms" => records::<i64>(&mut t, kw, 7, |_, _| Ok(()))?,
-            "Hexahedra" | "Hexaedra" => records::<i64>(&mut t, kw, 9, |_, _| Ok(()))?,
+            "Quadrilaterals" | "Pyramids" | "Prisms" | "Hexahedra" | "Hexaedra" => {
+                let per = match kw {
+                    "Quadrilaterals" => 5,
+                    "Pyramids" => 6,
+                    "Prisms" => 7,
+                    _ => 9,
+                };
+                let mut n = 0usize;
+                records::<i64>(&mut t, kw, per, |_, _| {
+                    n += 1;
+                    Ok(())
+                })?;
+                if n > 0 {
+                    notes.push(format!(
+                        "skipped {n} element(s) of '{kw}': bubblemesh reads edges, triangles \
+                         and tetrahedra only"
+                    ));
+                }
+            }
             "End" => break,
             other => {
                 return Err(t.err(format!("unknown Medit keyword '{}'", clip(other))));
@@ -223,5 +245,5 @@ pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
     }
     infer_node_entities(&mut mesh, &known);
     complete_entities(&mut mesh);
-    Ok(mesh)
+    Ok((mesh, notes))
 }

@@ -17,8 +17,9 @@
 //!   block elements keep their order in the mesh.
 //!
 //! Reading: `$Entities` is parsed loosely (tags and boundaries; physical
-//! tags ignored), `$Nodes`/`$Elements` strictly; element types other than
-//! 1, 2, 4 and 15 are skipped, as are unknown sections. Nodes are ordered by
+//! tags ignored), `$Nodes`/`$Elements` strictly; other Gmsh element types
+//! than 1, 2, 4 and 15 are skipped (with a note, see [`parse_with_notes`]),
+//! a type that is no Gmsh type is an error; unknown sections are skipped. Nodes are ordered by
 //! tag, so a file written here reads back with the same node indices. In MSH
 //! 2.2, where nodes carry no entity, a node on a point element is on that
 //! vertex and the others are inferred (see the crate documentation).
@@ -236,10 +237,58 @@ pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
 /// Parses MSH 4.1 or 2.2 ASCII with the per-node fields of its `$NodeData`
 /// sections (in the order of the file; a name may repeat, e.g. time steps).
 pub fn parse_with_node_data(data: &[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> {
-    parse_impl(data, true)
+    parse_impl(data, true).map(|r| (r.0, r.1))
 }
 
-fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), ParseError> {
+/// Parses MSH 4.1 or 2.2 ASCII, with a note per kind of element skipped
+/// (a Gmsh type the reader does not keep: quadrangles, hexahedra,
+/// second-order elements, ...).
+pub fn parse_with_notes(data: &[u8]) -> Result<(Mesh, Vec<String>), ParseError> {
+    parse_impl(data, false).map(|r| (r.0, r.2))
+}
+
+/// Gmsh element types 1..=140 are defined (GmshDefines.h); a type outside
+/// is not a Gmsh element.
+const GMSH_MAX_TYPE: i64 = 140;
+
+/// A readable name of the Gmsh element types commonly met.
+fn gmsh_type_name(ty: i64) -> String {
+    let name = match ty {
+        3 => "4-node quadrangle",
+        5 => "8-node hexahedron",
+        6 => "6-node prism",
+        7 => "5-node pyramid",
+        8 => "3-node second-order line",
+        9 => "6-node second-order triangle",
+        10 => "9-node second-order quadrangle",
+        11 => "10-node second-order tetrahedron",
+        16 => "8-node second-order quadrangle",
+        _ => return format!("Gmsh element type {ty}"),
+    };
+    format!("{name} (type {ty})")
+}
+
+/// Checks an element type the reader does not keep: an error if it is no
+/// Gmsh type, else counted as skipped.
+fn skip_type(
+    skipped: &mut std::collections::BTreeMap<i64, usize>,
+    ty: i64,
+    count: usize,
+    line: usize,
+) -> Result<(), ParseError> {
+    if !(1..=GMSH_MAX_TYPE).contains(&ty) {
+        return Err(ParseError::at(
+            line,
+            format!("unknown element type {ty} (Gmsh types are 1 to {GMSH_MAX_TYPE})"),
+        ));
+    }
+    *skipped.entry(ty).or_insert(0) += count;
+    Ok(())
+}
+
+type Parsed = (Mesh, Vec<NodeField>, Vec<String>);
+
+fn parse_impl(data: &[u8], node_data: bool) -> Result<Parsed, ParseError> {
     let s = as_text(data);
     let mut t = Text::new(&s, None);
     let first = t.line("$MeshFormat")?;
@@ -289,8 +338,19 @@ fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), Pa
         }
     }
     let fields = std::mem::take(&mut r.fields);
+    let notes: Vec<String> = r
+        .skipped
+        .iter()
+        .map(|(&ty, &n)| {
+            format!(
+                "skipped {n} element(s) of {}: bubblemesh reads points, 2-node lines, \
+                 3-node triangles and 4-node tetrahedra only",
+                gmsh_type_name(ty)
+            )
+        })
+        .collect();
     let mesh = r.finish()?;
-    Ok((mesh, fields))
+    Ok((mesh, fields, notes))
 }
 
 /// Reads the line closing a section, which must be `$End<name>`.
@@ -346,6 +406,8 @@ struct Reader {
     mesh: Mesh,
     /// `$NodeData` fields (only when asked for).
     fields: Vec<NodeField>,
+    /// Element type → number of elements skipped.
+    skipped: std::collections::BTreeMap<i64, usize>,
 }
 
 enum TagMap {
@@ -548,6 +610,7 @@ impl Reader {
             let count: usize = parse_at(b[3], "the number of elements in the block", ln)?;
             let e = entity(t, dim, etag)?;
             let Some((k, _)) = element_kind(ty) else {
+                skip_type(&mut self.skipped, ty, count, ln)?;
                 for _ in 0..count {
                     t.line("an element line")?;
                 }
@@ -583,6 +646,7 @@ impl Reader {
             let ty: i64 = parse_at(l[1], "an element type", ln)?;
             let ntags: usize = parse_at(l[2], "the number of tags", ln)?;
             let Some((k, dim)) = element_kind(ty) else {
+                skip_type(&mut self.skipped, ty, 1, ln)?;
                 continue;
             };
             if l.len() < 3 + ntags + k {

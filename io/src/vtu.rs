@@ -6,7 +6,9 @@
 //! node's and cell's entity; points are Float64 written exactly.
 //!
 //! Reading accepts ASCII files as written here or by meshio (`binary=False`):
-//! cells of types 3, 5 and 10 are kept, others skipped. Entities come from
+//! cells of types 3, 5 and 10 are kept, other VTK types skipped (with a
+//! note, see [`parse_with_notes`]; vertex cells silently), a type that is
+//! no VTK type is an error. Entities come from
 //! `entity_dim`/`entity_id` when present, else from meshio's Gmsh tags
 //! (`gmsh:dim_tags` point data, `gmsh:geometrical` cell data), else they are
 //! inferred (see the crate documentation). Binary or appended data is
@@ -488,10 +490,21 @@ pub fn parse(data: &[u8]) -> Result<Mesh, ParseError> {
 /// Parses an ASCII VTU file with its `<PointData>` arrays as node fields
 /// (every array with one value per component per point).
 pub fn parse_with_node_data(data: &[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> {
-    parse_impl(data, true)
+    parse_impl(data, true).map(|r| (r.0, r.1))
 }
 
-fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), ParseError> {
+/// Parses an ASCII VTU file, with a note per VTK cell type skipped (a type
+/// the reader does not keep: quads, hexahedra, quadratic cells, ...).
+pub fn parse_with_notes(data: &[u8]) -> Result<(Mesh, Vec<String>), ParseError> {
+    parse_impl(data, false).map(|r| (r.0, r.2))
+}
+
+/// VTK cell types are 0..=81 (vtkCellType.h); a type outside is no VTK cell.
+const VTK_MAX_TYPE: i64 = 81;
+
+type Parsed = (Mesh, Vec<NodeField>, Vec<String>);
+
+fn parse_impl(data: &[u8], node_data: bool) -> Result<Parsed, ParseError> {
     let s = as_text(data);
     let piece = collect(&s)?;
     let pts_arr = piece
@@ -567,6 +580,7 @@ fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), Pa
         None => None,
     };
     let mut prev = 0i64;
+    let mut skipped: std::collections::BTreeMap<i64, usize> = Default::default();
     for c in 0..ncells {
         let end = offsets[c];
         if end < prev || end as u64 > conn.len() as u64 {
@@ -581,7 +595,20 @@ fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), Pa
             3 => (2, 1u8),
             5 => (3, 2),
             10 => (4, 3),
-            _ => continue,
+            // a vertex cell: its point is a node anyway
+            1 => continue,
+            t if (0..=VTK_MAX_TYPE).contains(&t) => {
+                *skipped.entry(t).or_insert(0usize) += 1;
+                continue;
+            }
+            t => {
+                return Err(ParseError::at(
+                    ty_a.line,
+                    format!(
+                        "cell {c}: unknown VTK cell type {t} (VTK types are 0 to {VTK_MAX_TYPE})"
+                    ),
+                ))
+            }
         };
         if ids.len() != k {
             return Err(ParseError::at(
@@ -670,5 +697,23 @@ fn parse_impl(data: &[u8], node_data: bool) -> Result<(Mesh, Vec<NodeField>), Pa
             });
         }
     }
-    Ok((mesh, fields))
+    let notes = skipped
+        .iter()
+        .map(|(&t, &n)| {
+            let name = match t {
+                9 => "quad (type 9)".to_string(),
+                12 => "hexahedron (type 12)".to_string(),
+                13 => "wedge (type 13)".to_string(),
+                14 => "pyramid (type 14)".to_string(),
+                22 => "quadratic triangle (type 22)".to_string(),
+                24 => "quadratic tetrahedron (type 24)".to_string(),
+                t => format!("VTK cell type {t}"),
+            };
+            format!(
+                "skipped {n} cell(s) of {name}: bubblemesh reads lines, triangles and \
+                 tetrahedra only"
+            )
+        })
+        .collect();
+    Ok((mesh, fields, notes))
 }

@@ -12,8 +12,8 @@
 //! - [`anim`]: a page animating a sequence of pictures (the bubbles
 //!   settling, thesis Fig. 5.6).
 //!
-//! Everything renders to bytes in memory; [`write_atomic`] then puts a file
-//! in place whole or not at all.
+//! Everything renders to bytes in memory; the caller writes them (the
+//! command line through `bubblemesh_io::output`, whole or not at all).
 //!
 //! Invariants:
 //! - an SVG picture holds exactly one `<polygon>` per drawn face: per
@@ -22,10 +22,7 @@
 //! - renderers never panic on a mesh that breaks the [`Mesh`] invariants:
 //!   they return [`VizError::InvalidMesh`].
 
-use std::fs::{self, OpenOptions};
-use std::io::{self, Write};
 use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 pub use bubblemesh_core::Mesh;
 
@@ -76,37 +73,6 @@ impl Kind {
     }
 }
 
-/// Writes `bytes` to `path` whole or not at all: a temporary file in the
-/// same directory, synced, then renamed over `path`; on failure the
-/// temporary is removed and an existing `path` is left as it was.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let name = path
-        .file_name()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let tmp = dir.join(format!(
-        ".{}.{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let result = (|| {
-        let mut f = OpenOptions::new().write(true).create_new(true).open(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,19 +84,5 @@ mod tests {
         assert_eq!(Kind::from_path(Path::new("x.htm")), Some(Kind::Html));
         assert_eq!(Kind::from_path(Path::new("x.msh")), None);
         assert_eq!(Kind::from_path(Path::new("svg")), None);
-    }
-
-    #[test]
-    fn atomic_write_replaces_whole_and_fails_cleanly() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("a.svg");
-        fs::write(&p, "old").unwrap();
-        write_atomic(&p, b"new").unwrap();
-        assert_eq!(fs::read_to_string(&p).unwrap(), "new");
-        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
-        // a missing directory: an error, nothing written
-        let q = dir.path().join("missing/b.svg");
-        assert!(write_atomic(&q, b"x").is_err());
-        assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

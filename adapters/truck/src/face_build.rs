@@ -293,9 +293,12 @@ pub(crate) fn face_from_loops(
 /// |signed area| of a closed polygon in (u,v).
 fn area(l: &[[f64; 2]]) -> f64 {
     let n = l.len();
+    // relative to the first point (no cancellation far from the origin)
+    let o = l.first().copied().unwrap_or([0.0, 0.0]);
     (0..n)
         .map(|k| {
             let (a, b) = (l[k], l[(k + 1) % n]);
+            let (a, b) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
             a[0] * b[1] - b[0] * a[1]
         })
         .sum::<f64>()

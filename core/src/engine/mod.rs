@@ -937,9 +937,14 @@ fn mesh_face(
     // points just left of the loop's segments.
     for (li, (locals, luv)) in loop_locals.iter().zip(&loops_uv).enumerate() {
         let face_on_left = if periods.iter().all(|p| p.is_none()) {
+            // relative to the loop's first point: far from the origin (a
+            // unit square at (1e8, 1e8)) the products of absolute
+            // coordinates cancel and the sign is noise
+            let o = luv.first().copied().unwrap_or([0.0, 0.0]);
             let area2: f64 = (0..luv.len())
                 .map(|k| {
                     let (a, b) = (luv[k], luv[(k + 1) % luv.len()]);
+                    let (a, b) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
                     a[0] * b[1] - b[0] * a[1]
                 })
                 .sum();

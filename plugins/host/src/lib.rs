@@ -49,6 +49,10 @@ pub use config::{read_config, specs_from_command_line, PluginSpec};
 pub enum PluginError {
     #[error("plugin {}: no such file", .path.display())]
     Missing { path: PathBuf },
+    #[error("plugin {}: is a directory, not a shared library", .path.display())]
+    IsDirectory { path: PathBuf },
+    #[error("plugin {}: not a regular file, not a shared library", .path.display())]
+    NotAFile { path: PathBuf },
     #[error("plugin {}: cannot load the shared library: {reason}", .path.display())]
     NotLoadable { path: PathBuf, reason: String },
     #[error(
@@ -105,8 +109,11 @@ impl Plugin {
     /// Loads the library at `path` and checks its table (see the crate docs).
     pub fn load(path: &Path) -> Result<Arc<Plugin>, PluginError> {
         let path = path.to_path_buf();
-        if !path.is_file() {
-            return Err(PluginError::Missing { path });
+        match std::fs::metadata(&path) {
+            Err(_) => return Err(PluginError::Missing { path }),
+            Ok(m) if m.is_dir() => return Err(PluginError::IsDirectory { path }),
+            Ok(m) if !m.is_file() => return Err(PluginError::NotAFile { path }),
+            Ok(_) => {}
         }
         // A bare file name would make dlopen search the library path; a
         // plugin is always the file the user named.

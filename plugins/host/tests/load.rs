@@ -66,6 +66,18 @@ fn missing_file_and_non_library_are_refused() {
     assert!(matches!(e, PluginError::Missing { .. }));
     assert!(e.to_string().contains("nope.so") && e.to_string().contains("no such file"));
 
+    // a directory named like a library: said so, not "no such file"
+    let d = dir.path().join("some_dir.so");
+    std::fs::create_dir(&d).unwrap();
+    let e = Plugin::load(&d).unwrap_err();
+    assert!(matches!(e, PluginError::IsDirectory { .. }), "{e}");
+    assert!(
+        e.to_string().contains("some_dir.so")
+            && e.to_string()
+                .contains("is a directory, not a shared library"),
+        "{e}"
+    );
+
     let text = dir.path().join("text.so");
     std::fs::write(&text, "this is not a shared library\n").unwrap();
     let e = Plugin::load(&text).unwrap_err();

@@ -10,12 +10,21 @@ pub(crate) type Xy = [f64; 2];
 
 /// Twice the signed area of the closed polygon `poly` (the last point joins
 /// the first): > 0 counter-clockwise, < 0 clockwise.
+///
+/// Coordinates are taken relative to the first point, so a small loop far
+/// from the origin (a unit square at (1e8, 1e8)) keeps its area instead of
+/// losing it to cancellation between products of size 1e16.
 pub(crate) fn signed_area(poly: &[Xy]) -> f64 {
     let n = poly.len();
+    let Some(&o) = poly.first() else {
+        return 0.0;
+    };
     let mut s = 0.0;
     for i in 0..n {
         let (a, b) = (poly[i], poly[(i + 1) % n]);
-        s += a[0] * b[1] - a[1] * b[0];
+        let (ax, ay) = (a[0] - o[0], a[1] - o[1]);
+        let (bx, by) = (b[0] - o[0], b[1] - o[1]);
+        s += ax * by - ay * bx;
     }
     0.5 * s
 }
@@ -193,6 +202,15 @@ mod tests {
         assert!(!inside([1.5, 0.5], &sq));
         assert_eq!(perimeter(&sq), 4.0);
         assert!((dist_to_segment([0.5, 0.2], [0.0, 0.0], [1.0, 0.0]) - 0.2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn area_of_a_small_loop_far_from_the_origin_survives() {
+        let o = 1e8;
+        let sq = [[o, o], [o + 1.0, o], [o + 1.0, o + 1.0], [o, o + 1.0]];
+        assert_eq!(signed_area(&sq), 1.0);
+        let rev: Vec<Xy> = sq.iter().rev().copied().collect();
+        assert_eq!(signed_area(&rev), -1.0);
     }
 
     #[test]

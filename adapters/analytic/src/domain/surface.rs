@@ -231,9 +231,34 @@ pub(crate) fn add_surfaces(specs: &[SurfaceSpec], model: &mut Model) -> Result<(
                     format!("hole {} needs at least 3 finite (u,v) points", k + 1),
                 ));
             }
+            // a hole wholly beyond the parameter range along a
+            // non-periodic direction cuts nothing: the connection would
+            // fail later with misleading advice about the size
+            let (du, dv) = surface.domain();
+            for (c, (range, name)) in [(du, "u"), (dv, "v")].into_iter().enumerate() {
+                if periods[c].is_some() {
+                    continue;
+                }
+                let below = h.iter().all(|p| p[c] <= range[0]);
+                let above = h.iter().all(|p| p[c] >= range[1]);
+                if below || above {
+                    return Err(Invalid::new(
+                        &entity,
+                        format!(
+                            "hole {} lies outside the surface's parameter range \
+                             ({name} in [{}, {}]); holes_uv are (u,v) points of the surface",
+                            k + 1,
+                            range[0],
+                            range[1]
+                        ),
+                    ));
+                }
+            }
+            let o = h[0];
             let area2: f64 = (0..h.len())
                 .map(|i| {
                     let (a, b) = (h[i], h[(i + 1) % h.len()]);
+                    let (a, b) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
                     a[0] * b[1] - b[0] * a[1]
                 })
                 .sum();
