@@ -662,8 +662,22 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
     for line in said {
         eprintln!("{line}");
     }
+    warn_refined(&model, &report);
     warn_low_quality(&low);
     Ok(())
+}
+
+/// Faces the engine meshed finer than asked (`engine::refine`): the mesh
+/// departs from the requested spacing there, so the user is told.
+fn warn_refined(model: &Model, report: &Report) {
+    for r in &report.refined {
+        let face = model.describe(bubblemesh_core::EntityRef::new(2, r.face));
+        let reason: String = r.reason.chars().take(200).collect();
+        eprintln!(
+            "warning: {face}: meshed with {} of the requested spacing, which could not give it a valid mesh ({reason})",
+            r.spacing_factor
+        );
+    }
 }
 
 fn run_draw(a: DrawArgs) -> Result<(), String> {
