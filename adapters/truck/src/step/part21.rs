@@ -207,9 +207,12 @@ impl<'a> Lexer<'a> {
             .iter()
             .rposition(|&c| c == b'\n')
             .map_or(0, |k| k + 1);
-        // the offset may fall inside a multi-byte character of a lossy
-        // conversion only if the text were not UTF-8, which a &str is not
-        let column = 1 + self.text[line_start..pos].chars().count();
+        // tokens start and end on ASCII bytes, so this slice is on
+        // character boundaries; bytes are counted should it ever not be
+        let column = 1 + self
+            .text
+            .get(line_start..pos)
+            .map_or(pos - line_start, |s| s.chars().count());
         (line, column)
     }
 
@@ -225,6 +228,20 @@ impl<'a> Lexer<'a> {
 
     fn syntax(&self, pos: usize, message: impl Into<String>) -> Part21Error {
         self.err(Part21ErrorKind::Syntax, pos, message)
+    }
+
+    /// The error for a token starting at `pos` that is malformed at byte
+    /// `k`: the file is truncated if it ends there.
+    fn malformed(&self, pos: usize, k: usize, message: &str) -> Part21Error {
+        if k >= self.b.len() {
+            self.err(
+                Part21ErrorKind::Truncated,
+                pos,
+                format!("it ends inside a token ({message})"),
+            )
+        } else {
+            self.syntax(pos, message)
+        }
     }
 
     /// Skips whitespace and comments.
@@ -318,7 +335,7 @@ impl<'a> Lexer<'a> {
                     k += 1;
                 }
                 if k == body || b.get(k) != Some(&b'.') {
-                    return Err(self.syntax(s, "expected an enumeration .NAME."));
+                    return Err(self.malformed(s, k, "expected an enumeration .NAME."));
                 }
                 self.i = k + 1;
                 Tok::Enum(&self.text[body..k])
@@ -356,7 +373,7 @@ impl<'a> Lexer<'a> {
                         Tok::ConstValue(name)
                     }
                 } else {
-                    return Err(self.syntax(s, "expected digits or a name after '#' or '@'"));
+                    return Err(self.malformed(s, k, "expected digits or a name after '#' or '@'"));
                 }
             }
             b'<' => match b[s..].iter().position(|&c| c == b'>') {
@@ -382,13 +399,21 @@ impl<'a> Lexer<'a> {
                     });
                 let end = match special {
                     Some(k) => s + k.len(),
+                    // a file cut inside END-ISO-10303-21
+                    None if rest.len() < 16 && b"END-ISO-10303-21".starts_with(rest) => {
+                        return Err(self.err(
+                            Part21ErrorKind::Truncated,
+                            s,
+                            "it ends inside END-ISO-10303-21",
+                        ))
+                    }
                     None => {
                         let mut k = s + 1;
                         while k < b.len() && is_ident(b[k]) {
                             k += 1;
                         }
                         if c == b'!' && k == s + 1 {
-                            return Err(self.syntax(s, "expected a keyword after '!'"));
+                            return Err(self.malformed(s, k, "expected a keyword after '!'"));
                         }
                         k
                     }
@@ -442,7 +467,7 @@ impl<'a> Lexer<'a> {
             k += 1;
         }
         if k == digits {
-            return Err(self.syntax(s, "expected a digit after the sign"));
+            return Err(self.malformed(s, k, "expected a digit after the sign"));
         }
         let mut real = false;
         if b.get(k) == Some(&b'.') {
@@ -463,7 +488,7 @@ impl<'a> Lexer<'a> {
                 k += 1;
             }
             if k == e {
-                return Err(self.syntax(s, "expected the exponent's digits after E"));
+                return Err(self.malformed(s, k, "expected the exponent's digits after E"));
             }
         }
         let slice = &self.text[s..k];
