@@ -117,11 +117,14 @@ fn huge_coordinate_is_reported_as_out_of_range() {
 #[test]
 fn truncated_file_says_truncated() {
     let good = cube();
+    // the last ENDSEC cut to ENDS
+    let endsec = good.rfind("ENDSEC;").unwrap() + 4;
     for cut in [
         good.len() / 3,
         good.len() / 2,
         good.len() - 5,
         good.len() - 30,
+        endsec,
     ] {
         let e = err(&good[..cut]);
         assert!(

@@ -640,7 +640,9 @@ impl<'a> Parser<'a> {
 
     /// The error for token `t` at `pos` where `what` was expected.
     fn unexpected(&self, t: &Tok, pos: usize, what: &str) -> Part21Error {
-        if *t == Tok::Eof {
+        // a token the file ends with (a keyword cut short) is a truncation too
+        let rest = &self.lx.b[self.lx.i.min(self.lx.b.len())..];
+        if *t == Tok::Eof || rest.iter().all(|&c| c <= b' ') {
             self.lx.err(
                 Part21ErrorKind::Truncated,
                 pos,
