@@ -655,7 +655,12 @@ impl<'a> Parser<'a> {
     }
 
     fn exchange(&mut self) -> Result<Exchange, Part21Error> {
-        let (t, pos) = self.lx.next()?;
+        // whatever the first token is wrong with (binary data, another
+        // format), the file is not STEP
+        let (t, pos) = self.lx.next().map_err(|e| Part21Error {
+            kind: Part21ErrorKind::NotStep,
+            ..e
+        })?;
         if t != Tok::Keyword("ISO-10303-21") {
             return Err(self.lx.err(
                 Part21ErrorKind::NotStep,
@@ -1031,6 +1036,8 @@ mod tests {
         let e = parse("ISO-10303-21;\nDATA;\n#1=A(1);").unwrap_err();
         assert_eq!(e.kind, Part21ErrorKind::Truncated, "{e}");
         let e = parse("hello").unwrap_err();
+        assert_eq!(e.kind, Part21ErrorKind::NotStep, "{e}");
+        let e = parse("\u{fffd}PNG\r\n").unwrap_err();
         assert_eq!(e.kind, Part21ErrorKind::NotStep, "{e}");
     }
 
