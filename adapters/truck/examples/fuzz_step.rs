@@ -1,7 +1,8 @@
 //! A mutation fuzzer for the STEP reader on the stable toolchain (no
 //! cargo-fuzz, which needs nightly): seed files are mutated with a fixed
 //! seed (byte flips, STEP tokens inserted, ranges deleted or duplicated,
-//! splices of two seeds, truncation) and each mutant goes through
+//! splices of two seeds, truncation, numbers made extreme, references
+//! redirected) and each mutant goes through
 //! [`parse_step`] (parser, entity table, conversion).
 //!
 //! ```sh
@@ -97,7 +98,7 @@ fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], base: &[u8]) -> Vec<u8> {
     let mut v = base.to_vec();
     for _ in 0..1 + rng.below(4) {
         let n = v.len();
-        match rng.below(7) {
+        match rng.below(9) {
             0 if n > 0 => {
                 let i = rng.below(n);
                 v[i] = b" ()',;#$*.=0123456789E-+/\"\\"[rng.below(27)];
@@ -129,6 +130,22 @@ fn mutate(rng: &mut Rng, seeds: &[Vec<u8>], base: &[u8]) -> Vec<u8> {
                 }
             }
             5 if n > 0 => v.truncate(rng.below(n)),
+            6 | 7 if n > 0 => {
+                // a reference #N redirected to another entity (type
+                // confusion and cycles in the conversion, valid syntax)
+                let i = rng.below(n);
+                if let Some(k) = v[i..].iter().position(|&c| c == b'#') {
+                    let s = i + k + 1;
+                    let mut e = s;
+                    while e < v.len() && v[e].is_ascii_digit() {
+                        e += 1;
+                    }
+                    if e > s {
+                        let to = (1 + rng.below(400)).to_string();
+                        v.splice(s..e, to.bytes());
+                    }
+                }
+            }
             _ if n > 0 => {
                 // a number of the file replaced by an extreme one
                 let i = rng.below(n);
