@@ -3,9 +3,9 @@
 //! Real CAD parts as bubblemesh [`Model`](bubblemesh_core::model::Model)s:
 //!
 //! - [`read_step`] / [`parse_step`]: a STEP (ISO 10303-21, AP203/AP214/AP242
-//!   B-rep) file. The file is parsed by truck-stepio's STEP parser (its
-//!   re-exported `ruststep`); every geometric and topological entity is then
-//!   converted here into bubblemesh-analytic geometry. Every `ADVANCED_FACE`,
+//!   B-rep) file. The file is parsed by our own ISO 10303-21 parser
+//!   ([`step::part21`]) into ruststep's AST; every geometric and topological
+//!   entity is then converted here into bubblemesh-analytic geometry. Every `ADVANCED_FACE`,
 //!   `EDGE_CURVE` and `VERTEX_POINT` of the file ends up in the model, or the
 //!   read fails with an error naming the entity (`#id TYPE`) and the reason.
 //!

@@ -74,7 +74,7 @@ impl<'a> Geo<'a> {
                 if let Some(Parameter::List(c)) = p.get(1) {
                     for (k, x) in c.iter().take(3).enumerate() {
                         if let Parameter::Real(x) = x {
-                            if x.is_finite() {
+                            if x.abs() <= super::table::MAX_COORDINATE {
                                 lo[k] = lo[k].min(*x);
                                 hi[k] = hi[k].max(*x);
                             }
@@ -94,7 +94,7 @@ impl<'a> Geo<'a> {
 
     pub fn point(&self, id: u64) -> Result<P3, StepError> {
         let a = self.t.args(id, &["CARTESIAN_POINT"], 2)?;
-        let c = self.t.reals(id, &a[1], "coordinates")?;
+        let c = self.t.coords(id, &a[1], "coordinates")?;
         match c.as_slice() {
             [x, y, z] => Ok(P3::new(*x, *y, *z)),
             _ => Err(self.t.err(

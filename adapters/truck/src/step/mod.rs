@@ -1,17 +1,18 @@
 //! STEP (ISO 10303-21) B-rep files as bubblemesh models.
 //!
-//! # Why not truck-stepio's own conversion
+//! # Why not truck-stepio
 //!
-//! truck-stepio 0.3 parses every file we tried, but its conversion to truck
-//! geometry is not usable on OpenCascade-written files (issue 4): periodic
-//! B-splines come with unclamped knot vectors that truck evaluates over the
-//! whole knot range (NaN, runaway memory), edges prefer 2D pcurves and
-//! B-spline edge curves are not trimmed to their vertices, failures are
-//! printed and the entity dropped, `VERTEX_LOOP`s are dropped, and which
-//! shells make up which solid is not kept. So only its parser (the
-//! re-exported `ruststep`) is used; the entities are read here into
-//! bubblemesh-analytic geometry, which evaluates B-splines only on their
-//! valid span [u_p, u_n].
+//! truck-stepio 0.3's conversion to truck geometry is not usable on
+//! OpenCascade-written files: periodic B-splines come with
+//! unclamped knot vectors that truck evaluates over the whole knot range
+//! (NaN, runaway memory), edges prefer 2D pcurves and B-spline edge curves
+//! are not trimmed to their vertices, failures are printed and the entity
+//! dropped, `VERTEX_LOOP`s are dropped, and which shells make up which solid
+//! is not kept. Its parser (the re-exported `ruststep`) recursed per nesting
+//! level and rejected legal files (see [`part21`]). So the exchange
+//! structure is read by our own parser, [`part21`], into ruststep's AST
+//! types, and the entities are converted here into bubblemesh-analytic
+//! geometry, which evaluates B-splines only on their valid span [u_p, u_n].
 //!
 //! # What the model contains
 //!
@@ -38,6 +39,7 @@
 
 mod build;
 mod geometry;
+pub mod part21;
 mod table;
 
 use std::path::Path;
@@ -127,30 +129,14 @@ pub fn read_step(path: &Path) -> Result<StepModel, StepError> {
 /// Reads STEP text; `source_name` is used in messages and as the model's
 /// source.
 pub fn parse_step(text: &str, source_name: &str) -> Result<StepModel, StepError> {
-    if text.trim().is_empty() {
+    if text.trim_start_matches('\u{feff}').trim().is_empty() {
         return Err(StepError::file(source_name, "the file is empty"));
-    }
-    if !text.trim_start().starts_with("ISO-10303-21") {
-        return Err(StepError::file(
-            source_name,
-            "not a STEP file (it does not start with ISO-10303-21;)",
-        ));
-    }
-    let trimmed = text.trim_end();
-    if !trimmed.ends_with("END-ISO-10303-21;") {
-        return Err(StepError::file(
-            source_name,
-            "the file is truncated (it does not end with END-ISO-10303-21;)",
-        ));
     }
     // the parser and the conversion must never take the process down
     let result = std::panic::catch_unwind(|| {
-        let exchange = truck_stepio::r#in::ruststep::parser::parse(text).map_err(|e| {
-            let msg = e.to_string();
-            let short: String = msg.chars().take(300).collect();
-            StepError::file(source_name, format!("STEP syntax error: {short}"))
-        })?;
-        let instances: Vec<_> = exchange.data.into_iter().flat_map(|d| d.entities).collect();
+        let exchange =
+            part21::parse(text).map_err(|e| StepError::file(source_name, e.to_string()))?;
+        let instances = exchange.instances;
         if instances.is_empty() {
             return Err(StepError::file(source_name, "the DATA section is empty"));
         }

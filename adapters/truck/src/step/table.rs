@@ -8,6 +8,15 @@ use truck_stepio::r#in::ruststep::ast::{EntityInstance, Name, Parameter, Record}
 
 use super::StepError;
 
+/// Largest coordinate magnitude accepted in a `CARTESIAN_POINT`. Coordinates
+/// beyond it are nonsense in any length unit, and the geometry computes
+/// products of up to six coordinate differences (squared norms of cross
+/// products, volumes), which stay finite below it: (2·10⁵⁰)⁶ ≈ 6·10³⁰¹ <
+/// f64::MAX. A larger but finite coordinate would otherwise surface later
+/// as an unrelated error (an infinite model extent makes every edge look
+/// closed).
+pub const MAX_COORDINATE: f64 = 1e50;
+
 /// One entity instance.
 pub(crate) struct Entity {
     /// The records: one for a simple instance, several for a complex one.
@@ -179,6 +188,19 @@ impl Table {
             .iter()
             .map(|x| self.real(id, x, what))
             .collect()
+    }
+
+    /// The coordinates of a point: finite numbers of magnitude at most
+    /// [`MAX_COORDINATE`].
+    pub fn coords(&self, id: u64, p: &Parameter, what: &str) -> Result<Vec<f64>, StepError> {
+        let c = self.reals(id, p, what)?;
+        if let Some(x) = c.iter().find(|x| !(x.abs() <= MAX_COORDINATE)) {
+            return Err(self.err(
+                id,
+                format!("coordinate {x:e} is out of range (|x| > {MAX_COORDINATE:e})"),
+            ));
+        }
+        Ok(c)
     }
 
     pub fn refs(&self, id: u64, p: &Parameter, what: &str) -> Result<Vec<u64>, StepError> {
