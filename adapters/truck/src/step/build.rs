@@ -40,36 +40,125 @@ struct FaceRaw {
     vertex_loops: Vec<u64>,
 }
 
-pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
-    let geo = Geo::new(t);
-    let mut model = Model {
-        source: Some(t.source.clone()),
-        ..Default::default()
-    };
-    let mut info = StepInfo::default();
+/// The entities one build pass turns into model entities, by STEP id
+/// (sorted): the whole file, or what one placed shape item reaches.
+#[derive(Default)]
+struct Scope {
+    vertices: Vec<u64>,
+    edges: Vec<u64>,
+    faces: Vec<u64>,
+    /// Solids, each a volume.
+    solids: Vec<u64>,
+    /// Shells recorded even when in no solid.
+    shells: Vec<u64>,
+}
 
-    // vertices
-    let mut vmap: HashMap<u64, u32> = HashMap::new();
-    for id in t.ids_of("VERTEX_POINT") {
-        let a = t.args(id, &["VERTEX_POINT"], 2)?;
-        let point = geo.point(t.r(id, &a[1], "vertex_geometry")?)?;
-        vmap.insert(id, model.vertices.len() as u32);
-        info.vertex_ids.push(id);
-        model.vertices.push(Vertex {
-            point,
-            name: Some(format!("#{id}")),
-        });
+impl Scope {
+    /// Every topological entity of the file.
+    fn everything(t: &Table) -> Self {
+        let both = |a: &str, b: &str| {
+            let mut v = t.ids_of(a);
+            v.extend(t.ids_of(b));
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        Scope {
+            vertices: t.ids_of("VERTEX_POINT"),
+            edges: t.ids_of("EDGE_CURVE"),
+            faces: both("ADVANCED_FACE", "FACE_SURFACE"),
+            solids: both("MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"),
+            shells: both("CLOSED_SHELL", "OPEN_SHELL"),
+        }
     }
 
-    // edge records
+    /// What the shape items `roots` (solids, shell-based surface models,
+    /// shells) reach.
+    fn reachable(
+        t: &Table,
+        roots: &[u64],
+        erec: &HashMap<u64, EdgeRec>,
+    ) -> Result<Self, StepError> {
+        let mut sc = Scope::default();
+        let mut shells = Vec::new();
+        for &r in roots {
+            let e = t.get(r)?;
+            if e.is("MANIFOLD_SOLID_BREP") || e.is("BREP_WITH_VOIDS") {
+                sc.solids.push(r);
+                shells.extend(solid_shells(t, r)?.into_iter().map(|(s, _)| s));
+            } else if e.is("SHELL_BASED_SURFACE_MODEL") {
+                let a = t.args(r, &["SHELL_BASED_SURFACE_MODEL"], 2)?;
+                shells.extend(t.refs(r, &a[1], "sbsm_boundary")?);
+            } else {
+                shells.push(r);
+            }
+        }
+        for s in shells {
+            let (sid, _) = resolve_shell(t, s)?;
+            sc.shells.push(sid);
+            let a = t.args(sid, &["CLOSED_SHELL", "OPEN_SHELL"], 2)?;
+            for f in t.refs(sid, &a[1], "cfs_faces")? {
+                let fid = if t.get(f)?.is("ORIENTED_FACE") {
+                    let b = t.args(f, &["ORIENTED_FACE"], 4)?;
+                    t.r(f, &b[2], "face_element")?
+                } else {
+                    f
+                };
+                sc.faces.push(fid);
+            }
+        }
+        sc.faces.sort_unstable();
+        sc.faces.dedup();
+        for &f in &sc.faces {
+            let raw = read_face(t, f, erec)?;
+            for u in raw.bounds.iter().flatten() {
+                sc.edges.push(u.edge);
+                let r = &erec[&u.edge];
+                sc.vertices.extend([r.v1, r.v2]);
+            }
+            sc.vertices.extend(raw.vertex_loops);
+        }
+        for v in [
+            &mut sc.vertices,
+            &mut sc.edges,
+            &mut sc.solids,
+            &mut sc.shells,
+        ] {
+            v.sort_unstable();
+            v.dedup();
+        }
+        Ok(sc)
+    }
+}
+
+/// The shells of a solid: (shell reference, `true` for the outer one).
+fn solid_shells(t: &Table, id: u64) -> Result<Vec<(u64, bool)>, StepError> {
+    let e = t.get(id)?;
+    let a = t.args(id, &["MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"], 2)?;
+    let mut shells = vec![(t.r(id, &a[1], "outer")?, true)];
+    if e.is("BREP_WITH_VOIDS") {
+        let voids = match e.part("BREP_WITH_VOIDS") {
+            Some(p) if e.records.len() > 1 => p.first(),
+            _ => a.get(2),
+        };
+        if let Some(v) = voids {
+            for s in t.refs(id, v, "voids")? {
+                shells.push((s, false));
+            }
+        }
+    }
+    Ok(shells)
+}
+
+/// Every EDGE_CURVE's vertices, geometry and sense.
+fn edge_records(t: &Table) -> Result<HashMap<u64, EdgeRec>, StepError> {
     let mut erec: HashMap<u64, EdgeRec> = HashMap::new();
-    let edge_ids = t.ids_of("EDGE_CURVE");
-    for &id in &edge_ids {
+    for id in t.ids_of("EDGE_CURVE") {
         let a = t.args(id, &["EDGE_CURVE"], 5)?;
         let v1 = t.r(id, &a[1], "edge_start")?;
         let v2 = t.r(id, &a[2], "edge_end")?;
         for v in [v1, v2] {
-            if !vmap.contains_key(&v) {
+            if !t.get(v)?.is("VERTEX_POINT") {
                 return Err(t.err(
                     id,
                     format!(
@@ -91,15 +180,89 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
             },
         );
     }
+    Ok(erec)
+}
+
+pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
+    let geo = Geo::new(t);
+    let mut model = Model {
+        source: Some(t.source.clone()),
+        ..Default::default()
+    };
+    let mut info = StepInfo::default();
+    let erec = edge_records(t)?;
+    let insts = super::assembly::instances(t, &geo)?;
+    let mut roots_seen: HashSet<u64> = HashSet::new();
+    let in_place = insts
+        .iter()
+        .all(|i| i.xf.is_identity(geo.extent) && roots_seen.insert(i.root));
+    if in_place {
+        // every part where the file draws it, once: the whole file in one
+        // pass, solids named after their products
+        let names: HashMap<u64, String> = insts.iter().map(|i| (i.root, i.name.clone())).collect();
+        add_scope(
+            &geo,
+            &Scope::everything(t),
+            &erec,
+            &names,
+            &mut model,
+            &mut info,
+        )?;
+        return Ok(StepModel { model, info });
+    }
+    // an assembly: each instance is built from its part's entities, placed
+    for inst in &insts {
+        let scope = Scope::reachable(t, &[inst.root], &erec)?;
+        let names = HashMap::from([(inst.root, inst.name.clone())]);
+        add_scope(
+            &geo.moved(inst.xf),
+            &scope,
+            &erec,
+            &names,
+            &mut model,
+            &mut info,
+        )?;
+    }
+    // solids of no product stay where the file draws them
+    let placed: HashSet<u64> = insts.iter().map(|i| i.root).collect();
+    let mut rest = Scope::everything(t).solids;
+    rest.retain(|s| !placed.contains(s));
+    if !rest.is_empty() {
+        let scope = Scope::reachable(t, &rest, &erec)?;
+        add_scope(&geo, &scope, &erec, &HashMap::new(), &mut model, &mut info)?;
+    }
+    Ok(StepModel { model, info })
+}
+
+/// Builds the entities of `scope` with `geo` (its motion applied) and
+/// appends them to `model` and `info`. `names`: volume names by solid id
+/// (`#id` otherwise).
+fn add_scope(
+    geo: &Geo,
+    scope: &Scope,
+    erec: &HashMap<u64, EdgeRec>,
+    names: &HashMap<u64, String>,
+    model: &mut Model,
+    info: &mut StepInfo,
+) -> Result<(), StepError> {
+    let t = geo.t;
+    // vertices
+    let mut vmap: HashMap<u64, u32> = HashMap::new();
+    for &id in &scope.vertices {
+        let a = t.args(id, &["VERTEX_POINT"], 2)?;
+        let point = geo.point(t.r(id, &a[1], "vertex_geometry")?)?;
+        vmap.insert(id, model.vertices.len() as u32);
+        info.vertex_ids.push(id);
+        model.vertices.push(Vertex {
+            point,
+            name: Some(format!("#{id}")),
+        });
+    }
 
     // faces, raw
-    let mut face_ids = t.ids_of("ADVANCED_FACE");
-    face_ids.extend(t.ids_of("FACE_SURFACE"));
-    face_ids.sort_unstable();
-    face_ids.dedup();
-    let mut raws = Vec::with_capacity(face_ids.len());
-    for &id in &face_ids {
-        raws.push(read_face(t, id, &erec)?);
+    let mut raws = Vec::with_capacity(scope.faces.len());
+    for &id in &scope.faces {
+        raws.push(read_face(t, id, erec)?);
     }
 
     // seams: edges used twice by one face
@@ -138,13 +301,13 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
 
     // model edges: every EDGE_CURVE but the seams used only as seams
     let mut emap: HashMap<u64, u32> = HashMap::new();
-    for &id in &edge_ids {
+    for &id in &scope.edges {
         if any_use.contains(&id) && !non_seam_use.contains(&id) {
             info.seams.push(id);
             continue;
         }
         let r = &erec[&id];
-        let edge = build_edge(&geo, id, r, &vmap, &model)?;
+        let edge = build_edge(geo, id, r, &vmap, model)?;
         emap.insert(id, model.edges.len() as u32);
         info.edge_ids.push(id);
         model.edges.push(edge);
@@ -153,7 +316,7 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
     // faces
     let mut fmap: HashMap<u64, u32> = HashMap::new();
     for (f, seams) in raws.iter().zip(&seam_of_face) {
-        let face = build_face(&geo, f, seams, &erec, &emap, &vmap, &model)?;
+        let face = build_face(geo, f, seams, erec, &emap, &vmap, model)?;
         fmap.insert(f.id, model.faces.len() as u32);
         info.face_ids.push(f.id);
         info.face_same_sense.push(f.same_sense);
@@ -162,32 +325,14 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
 
     // solids and shells
     let mut shell_seen: HashSet<u64> = HashSet::new();
-    let mut solids = t.ids_of("MANIFOLD_SOLID_BREP");
-    solids.extend(t.ids_of("BREP_WITH_VOIDS"));
-    solids.sort_unstable();
-    solids.dedup();
-    for id in solids {
-        let e = t.get(id)?;
-        let a = t.args(id, &["MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"], 2)?;
-        let mut shells = vec![(t.r(id, &a[1], "outer")?, true)];
-        if e.is("BREP_WITH_VOIDS") {
-            let voids = match e.part("BREP_WITH_VOIDS") {
-                Some(p) if e.records.len() > 1 => p.first(),
-                _ => a.get(2),
-            };
-            if let Some(v) = voids {
-                for s in t.refs(id, v, "voids")? {
-                    shells.push((s, false));
-                }
-            }
-        }
+    for &id in &scope.solids {
         let vol = model.volumes.len() as u32;
         let mut faces = Vec::new();
-        for (s, outer) in shells {
+        for (s, outer) in solid_shells(t, id)? {
             // a void's ORIENTED_CLOSED_SHELL is normally .F.: its faces, as
             // read, point into the void; the role is what `outer` records
             let (sid, _orient) = resolve_shell(t, s)?;
-            let sf = shell_faces(t, sid, &fmap, &mut info)?;
+            let sf = shell_faces(t, sid, &fmap, info)?;
             shell_seen.insert(sid);
             faces.extend(sf.iter().cloned());
             info.shells.push(ShellInfo {
@@ -201,17 +346,14 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
         model.volumes.push(Volume {
             faces,
             geometry: None,
-            name: Some(format!("#{id}")),
+            name: Some(names.get(&id).cloned().unwrap_or_else(|| format!("#{id}"))),
         });
     }
-    let mut others = t.ids_of("CLOSED_SHELL");
-    others.extend(t.ids_of("OPEN_SHELL"));
-    others.sort_unstable();
-    for sid in others {
+    for &sid in &scope.shells {
         if shell_seen.contains(&sid) {
             continue;
         }
-        let sf = shell_faces(t, sid, &fmap, &mut info)?;
+        let sf = shell_faces(t, sid, &fmap, info)?;
         info.shells.push(ShellInfo {
             step_id: sid,
             closed: t.get(sid)?.is("CLOSED_SHELL"),
@@ -220,7 +362,7 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
             faces: sf,
         });
     }
-    Ok(StepModel { model, info })
+    Ok(())
 }
 
 /// A shell reference, through ORIENTED_CLOSED_SHELL: (shell id, orientation).

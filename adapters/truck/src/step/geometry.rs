@@ -26,6 +26,59 @@ pub struct Placement {
     pub z: V3,
 }
 
+/// A rigid motion x ↦ rot·x + shift (`rot` a rotation: orthonormal, det
+/// +1), placing a part's geometry in its assembly. Lengths in the file's
+/// length unit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rigid {
+    pub rot: nalgebra::Matrix3<f64>,
+    pub shift: V3,
+}
+
+impl Rigid {
+    pub fn identity() -> Self {
+        Rigid {
+            rot: nalgebra::Matrix3::identity(),
+            shift: V3::zeros(),
+        }
+    }
+    /// The motion taking the world frame onto `pl`: local coordinates
+    /// (a, b, c) in `pl` ↦ o + a x + b y + c z.
+    pub fn from_placement(pl: &Placement) -> Self {
+        Rigid {
+            rot: nalgebra::Matrix3::from_columns(&[pl.x, pl.y, pl.z]),
+            shift: pl.o.coords,
+        }
+    }
+    pub fn inverse(&self) -> Self {
+        let rt = self.rot.transpose();
+        Rigid {
+            rot: rt,
+            shift: -(rt * self.shift),
+        }
+    }
+    /// `self ∘ other`: `other` first.
+    pub fn then_after(&self, other: &Rigid) -> Self {
+        Rigid {
+            rot: self.rot * other.rot,
+            shift: self.rot * other.shift + self.shift,
+        }
+    }
+    pub fn point(&self, p: &P3) -> P3 {
+        P3::from(self.rot * p.coords + self.shift)
+    }
+    pub fn vector(&self, v: &V3) -> V3 {
+        self.rot * v
+    }
+    /// Whether this moves no point of a box of size `scale` by more than
+    /// `1e-12 · scale`.
+    pub fn is_identity(&self, scale: f64) -> bool {
+        let e = (self.rot - nalgebra::Matrix3::identity()).abs().max() * scale.max(1.0)
+            + self.shift.norm();
+        e <= 1e-12 * scale.max(1.0)
+    }
+}
+
 /// A 3D curve of the file, untrimmed.
 #[derive(Clone, Debug)]
 pub enum CurveGeom {
@@ -50,6 +103,11 @@ pub struct Geo<'a> {
     /// Diagonal of the bounding box of all the file's cartesian points
     /// (sizes infinite lines used as profiles).
     pub extent: f64,
+    /// The motion applied to every point and direction read (a part's
+    /// placement in its assembly; the identity otherwise). Everything built
+    /// from points and directions — placements, vectors, control points —
+    /// is moved with it.
+    pub xf: Rigid,
 }
 
 impl<'a> Geo<'a> {
@@ -89,14 +147,29 @@ impl<'a> Geo<'a> {
             .sum::<f64>()
             .sqrt()
             .max(1.0);
-        Geo { t, angle, extent }
+        Geo {
+            t,
+            angle,
+            extent,
+            xf: Rigid::identity(),
+        }
+    }
+
+    /// The same reader with every point and direction moved by `xf`.
+    pub fn moved(&self, xf: Rigid) -> Geo<'a> {
+        Geo {
+            t: self.t,
+            angle: self.angle,
+            extent: self.extent,
+            xf,
+        }
     }
 
     pub fn point(&self, id: u64) -> Result<P3, StepError> {
         let a = self.t.args(id, &["CARTESIAN_POINT"], 2)?;
         let c = self.t.reals(id, &a[1], "coordinates")?;
         match c.as_slice() {
-            [x, y, z] => Ok(P3::new(*x, *y, *z)),
+            [x, y, z] => Ok(self.xf.point(&P3::new(*x, *y, *z))),
             _ => Err(self.t.err(
                 id,
                 format!("has {} coordinates, a 3D point is needed", c.len()),
@@ -117,6 +190,7 @@ impl<'a> Geo<'a> {
             }
         };
         v.try_normalize(0.0)
+            .map(|v| self.xf.vector(&v))
             .ok_or_else(|| self.t.err(id, "is the zero vector"))
     }
 

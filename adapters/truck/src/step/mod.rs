@@ -36,6 +36,7 @@
 //!
 //! Lengths are in the file's length unit; angles are converted to radians.
 
+mod assembly;
 mod build;
 mod geometry;
 mod table;
@@ -44,6 +45,7 @@ use std::path::Path;
 
 use bubblemesh_core::model::Model;
 
+pub use assembly::{volume_bbox, MAX_INSTANCES};
 pub use build::MAX_CONTROL_POINTS;
 
 /// Why a STEP file could not be read.
