@@ -1,0 +1,346 @@
+//! STEP assemblies: every part instance is placed by its transformation
+//! (nested assemblies compose), a part used twice gives two volumes, and
+//! each volume is named after its product and instance path.
+
+use bubblemesh_core::geom::P3;
+use bubblemesh_truck::{parse_step, read_step, step::volume_bbox};
+
+/// STEP text being written: entities numbered in order.
+struct Writer {
+    lines: Vec<String>,
+}
+
+impl Writer {
+    fn new() -> Self {
+        Writer { lines: Vec::new() }
+    }
+    /// Adds `#id = body;` and returns the id.
+    fn add(&mut self, body: impl Into<String>) -> usize {
+        self.lines.push(body.into());
+        self.lines.len()
+    }
+    fn point(&mut self, p: [f64; 3]) -> usize {
+        self.add(format!(
+            "CARTESIAN_POINT('',({:?},{:?},{:?}))",
+            p[0], p[1], p[2]
+        ))
+    }
+    fn dir(&mut self, d: [f64; 3]) -> usize {
+        self.add(format!("DIRECTION('',({:?},{:?},{:?}))", d[0], d[1], d[2]))
+    }
+    fn axis(&mut self, o: [f64; 3], z: [f64; 3], x: [f64; 3]) -> usize {
+        let (o, z, x) = (self.point(o), self.dir(z), self.dir(x));
+        self.add(format!("AXIS2_PLACEMENT_3D('',#{o},#{z},#{x})"))
+    }
+    /// The box [0, s0] × [0, s1] × [0, s2] as a MANIFOLD_SOLID_BREP whose
+    /// vertices are `off` away from its planes (0 for an exact box): returns
+    /// the solid's id.
+    fn box_solid(&mut self, s: [f64; 3], off: f64) -> usize {
+        let corner = |i: usize| [0, 1, 2].map(|k| if i >> k & 1 == 1 { s[k] } else { 0.0 });
+        let mut v = [0usize; 8];
+        for (i, vi) in v.iter_mut().enumerate() {
+            let c = corner(i);
+            // pushed off along (1, 1, 1) so no face contains its vertices exactly
+            let p = self.point([c[0] + off, c[1] + off, c[2] + off]);
+            *vi = self.add(format!("VERTEX_POINT('',#{p})"));
+        }
+        // the 12 edges: corners differing in one bit, from the lower one
+        let mut edges = std::collections::HashMap::new();
+        for i in 0..8usize {
+            for k in 0..3 {
+                let j = i | 1 << k;
+                if j == i {
+                    continue;
+                }
+                let (a, b) = (corner(i), corner(j));
+                let p = self.point(a);
+                let mut d = [0.0; 3];
+                d[k] = 1.0;
+                let dd = self.dir(d);
+                let vec = self.add(format!("VECTOR('',#{dd},{:?})", b[k] - a[k]));
+                let line = self.add(format!("LINE('',#{p},#{vec})"));
+                let e = self.add(format!("EDGE_CURVE('',#{},#{},#{line},.T.)", v[i], v[j]));
+                edges.insert((i, j), e);
+            }
+        }
+        let mut faces = Vec::new();
+        for k in 0..3 {
+            for side in 0..2 {
+                let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+                // counter-clockwise seen from outside: e_a × e_b = e_k
+                let mut cyc: Vec<usize> = [(0, 0), (1, 0), (1, 1), (0, 1)]
+                    .iter()
+                    .map(|&(x, y)| side << k | x << a | y << b)
+                    .collect();
+                if side == 0 {
+                    cyc.reverse();
+                }
+                let mut oes = Vec::new();
+                for m in 0..4 {
+                    let (p, q) = (cyc[m], cyc[(m + 1) % 4]);
+                    let (e, fwd) = match edges.get(&(p, q)) {
+                        Some(&e) => (e, true),
+                        None => (edges[&(q, p)], false),
+                    };
+                    let o = if fwd { ".T." } else { ".F." };
+                    oes.push(self.add(format!("ORIENTED_EDGE('',*,*,#{e},{o})")));
+                }
+                let list: Vec<String> = oes.iter().map(|x| format!("#{x}")).collect();
+                let lp = self.add(format!("EDGE_LOOP('',({}))", list.join(",")));
+                let fb = self.add(format!("FACE_OUTER_BOUND('',#{lp},.T.)"));
+                let mut n = [0.0; 3];
+                n[k] = if side == 1 { 1.0 } else { -1.0 };
+                let mut o = [0.0; 3];
+                o[k] = side as f64 * s[k];
+                let mut r = [0.0; 3];
+                r[a] = 1.0;
+                let pl = self.axis(o, n, r);
+                let plane = self.add(format!("PLANE('',#{pl})"));
+                faces.push(self.add(format!("ADVANCED_FACE('',(#{fb}),#{plane},.T.)")));
+            }
+        }
+        let list: Vec<String> = faces.iter().map(|x| format!("#{x}")).collect();
+        let shell = self.add(format!("CLOSED_SHELL('',({}))", list.join(",")));
+        self.add(format!("MANIFOLD_SOLID_BREP('',#{shell})"))
+    }
+    /// A product with its definition: returns the PRODUCT_DEFINITION.
+    fn product(&mut self, name: &str, app: usize) -> usize {
+        let pc = self.add(format!("PRODUCT_CONTEXT('',#{app},'mechanical')"));
+        let p = self.add(format!("PRODUCT('{name}','{name}','',(#{pc}))"));
+        let f = self.add(format!("PRODUCT_DEFINITION_FORMATION('','',#{p})"));
+        let c = self.add(format!(
+            "PRODUCT_DEFINITION_CONTEXT('part definition',#{app},'design')"
+        ));
+        self.add(format!("PRODUCT_DEFINITION('design','',#{f},#{c})"))
+    }
+    /// Gives product definition `pd` the shape representation `rep`.
+    fn shape(&mut self, pd: usize, rep: usize) {
+        let pds = self.add(format!("PRODUCT_DEFINITION_SHAPE('','',#{pd})"));
+        self.add(format!("SHAPE_DEFINITION_REPRESENTATION(#{pds},#{rep})"));
+    }
+    /// Places `child` (shape `child_rep`, frame `from` in it) in `parent`
+    /// (shape `parent_rep`) at frame `to`, as occurrence `name`.
+    #[allow(clippy::too_many_arguments)]
+    fn occurrence(
+        &mut self,
+        name: &str,
+        parent: usize,
+        parent_rep: usize,
+        child: usize,
+        child_rep: usize,
+        from: usize,
+        to: usize,
+    ) {
+        let n = self.add(format!(
+            "NEXT_ASSEMBLY_USAGE_OCCURRENCE('{name}','{name}','',#{parent},#{child},$)"
+        ));
+        let pds = self.add(format!("PRODUCT_DEFINITION_SHAPE('','',#{n})"));
+        let idt = self.add(format!("ITEM_DEFINED_TRANSFORMATION('','',#{from},#{to})"));
+        let rr = self.add(format!(
+            "( REPRESENTATION_RELATIONSHIP('','',#{child_rep},#{parent_rep}) \
+             REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION(#{idt}) \
+             SHAPE_REPRESENTATION_RELATIONSHIP() )"
+        ));
+        self.add(format!(
+            "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION(#{rr},#{pds})"
+        ));
+    }
+    fn text(&self) -> String {
+        let mut s = String::from(
+            "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\n\
+             FILE_NAME('','',(''),(''),'','','');\n\
+             FILE_SCHEMA(('AUTOMOTIVE_DESIGN'));\nENDSEC;\nDATA;\n",
+        );
+        for (k, l) in self.lines.iter().enumerate() {
+            s.push_str(&format!("#{} = {l};\n", k + 1));
+        }
+        s.push_str("ENDSEC;\nEND-ISO-10303-21;\n");
+        s
+    }
+}
+
+/// The representation context with a length unit and, when given, the
+/// file's distance uncertainty.
+fn context(w: &mut Writer, uncertainty: Option<f64>) -> usize {
+    let lu = w.add("( LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.) )");
+    let unc = match uncertainty {
+        Some(u) => {
+            let m = w.add(format!(
+                "UNCERTAINTY_MEASURE_WITH_UNIT(LENGTH_MEASURE({u:?}),#{lu},'distance_accuracy_value','')"
+            ));
+            format!(" GLOBAL_UNCERTAINTY_ASSIGNED_CONTEXT((#{m}))")
+        }
+        None => String::new(),
+    };
+    w.add(format!(
+        "( GEOMETRIC_REPRESENTATION_CONTEXT(3){unc} GLOBAL_UNIT_ASSIGNED_CONTEXT((#{lu})) \
+         REPRESENTATION_CONTEXT('','') )"
+    ))
+}
+
+/// A top assembly holding a sub-assembly `pair` twice (at z = 100 and,
+/// turned a quarter about x, at y = 50); `pair` holds the box part twice
+/// (at x = 10, and turned a quarter about z at y = 10). The box part's
+/// shape is a SHAPE_REPRESENTATION linked to its
+/// ADVANCED_BREP_SHAPE_REPRESENTATION, as OpenCascade writes it.
+fn nested_assembly() -> String {
+    let mut w = Writer::new();
+    let app = w.add("APPLICATION_CONTEXT('')");
+    let ctx = context(&mut w, None);
+    let origin = w.axis([0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    // the part
+    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0);
+    let box_pd = w.product("box", app);
+    let box_sr = w.add(format!("SHAPE_REPRESENTATION('',(#{origin}),#{ctx})"));
+    let brep = w.add(format!(
+        "ADVANCED_BREP_SHAPE_REPRESENTATION('',(#{solid},#{origin}),#{ctx})"
+    ));
+    w.add(format!(
+        "SHAPE_REPRESENTATION_RELATIONSHIP('','',#{box_sr},#{brep})"
+    ));
+    w.shape(box_pd, box_sr);
+    // the sub-assembly
+    let pair_pd = w.product("pair", app);
+    let a1 = w.axis([10.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let a2 = w.axis([0.0, 10.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]);
+    let pair_sr = w.add(format!(
+        "SHAPE_REPRESENTATION('',(#{origin},#{a1},#{a2}),#{ctx})"
+    ));
+    w.shape(pair_pd, pair_sr);
+    w.occurrence("box_a", pair_pd, pair_sr, box_pd, box_sr, origin, a1);
+    w.occurrence("box_b", pair_pd, pair_sr, box_pd, box_sr, origin, a2);
+    // the top
+    let top_pd = w.product("top", app);
+    let t1 = w.axis([0.0, 0.0, 100.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let t2 = w.axis([0.0, 50.0, 0.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]);
+    let top_sr = w.add(format!(
+        "SHAPE_REPRESENTATION('',(#{origin},#{t1},#{t2}),#{ctx})"
+    ));
+    w.shape(top_pd, top_sr);
+    w.occurrence("pair_1", top_pd, top_sr, pair_pd, pair_sr, origin, t1);
+    w.occurrence("pair_2", top_pd, top_sr, pair_pd, pair_sr, origin, t2);
+    w.text()
+}
+
+fn assert_box(lo: P3, hi: P3, want: [f64; 6], what: &str) {
+    let got = [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z];
+    for k in 0..6 {
+        assert!(
+            (got[k] - want[k]).abs() < 1e-9,
+            "{what}: bounding box {got:?}, expected {want:?}"
+        );
+    }
+}
+
+/// Nested instances are placed by the composition of their placements; a
+/// part used four times is four volumes with their own vertices, named
+/// after the part and the instance path.
+#[test]
+fn nested_assembly_instances_are_placed_and_named() {
+    let s = parse_step(&nested_assembly(), "nested").unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.model;
+    assert_eq!(m.volumes.len(), 4);
+    assert_eq!(m.vertices.len(), 32, "each instance has its own vertices");
+    assert_eq!(m.faces.len(), 24);
+    // box [0,1]×[0,2]×[0,3]; box_a moved by x + 10; box_b turned x → y
+    // about z and moved by y + 10: (x, y, z) ↦ (−y, x + 10, z)
+    // pair_1: moved by z + 100; pair_2: axis −y, reference x, so y' = z' ×
+    // x' = +z: (x, y, z) ↦ (x, 50 − z, y)
+    let want = [
+        ("box (pair_1/box_a)", [10.0, 0.0, 100.0, 11.0, 2.0, 103.0]),
+        ("box (pair_1/box_b)", [-2.0, 10.0, 100.0, 0.0, 11.0, 103.0]),
+        ("box (pair_2/box_a)", [10.0, 47.0, 0.0, 11.0, 50.0, 2.0]),
+        ("box (pair_2/box_b)", [-2.0, 47.0, 10.0, 0.0, 50.0, 11.0]),
+    ];
+    for (name, b) in want {
+        let v = m
+            .volumes
+            .iter()
+            .position(|v| v.name.as_deref() == Some(name))
+            .unwrap_or_else(|| {
+                let names: Vec<_> = m.volumes.iter().map(|v| v.name.clone()).collect();
+                panic!("no volume {name:?} in {names:?}")
+            });
+        let (lo, hi) = volume_bbox(m, v).unwrap();
+        assert_box(lo, hi, b, name);
+    }
+}
+
+/// A single part with a product keeps its geometry where the file draws
+/// it, its volume named after the product.
+#[test]
+fn single_part_volume_is_named_after_its_product() {
+    let mut w = Writer::new();
+    let app = w.add("APPLICATION_CONTEXT('')");
+    let ctx = context(&mut w, None);
+    let origin = w.axis([0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0);
+    let pd = w.product("lonely box", app);
+    let rep = w.add(format!(
+        "ADVANCED_BREP_SHAPE_REPRESENTATION('',(#{solid},#{origin}),#{ctx})"
+    ));
+    w.shape(pd, rep);
+    let s = parse_step(&w.text(), "single").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.model.volumes.len(), 1);
+    assert_eq!(s.model.volumes[0].name.as_deref(), Some("lonely box"));
+    let (lo, hi) = volume_bbox(&s.model, 0).unwrap();
+    assert_box(lo, hi, [0.0, 0.0, 0.0, 1.0, 2.0, 3.0], "lonely box");
+}
+
+/// The 18 solids of OpenCascade's as1 assembly (pythonocc-demos'
+/// as1-oc-214.stp, in /work/shared/realstep or $BUBBLEMESH_REALSTEP; the
+/// test is skipped without it) are where Gmsh puts them. Expected boxes:
+/// Gmsh 4.15.2, `gmsh.option.setNumber("Geometry.OCCBoundsUseStl", 1)`,
+/// `gmsh.model.occ.importShapes(file)`, then `gmsh.model.getBoundingBox(3,
+/// tag)` for each volume (the tessellation's bounds: OpenCascade's default
+/// boxes of B-spline faces enclose their control points), in Gmsh's order,
+/// which is the file's.
+#[test]
+fn as1_assembly_parts_are_where_gmsh_puts_them() {
+    let dir = std::env::var("BUBBLEMESH_REALSTEP").unwrap_or("/work/shared/realstep".into());
+    let path = std::path::Path::new(&dir).join("pyocc_as1-oc-214.stp");
+    if !path.exists() {
+        eprintln!("skipped: {} not found", path.display());
+        return;
+    }
+    #[rustfmt::skip]
+    let gmsh: [[f64; 6]; 18] = [
+        [175.000, 67.500, 50.000, 178.000, 82.500, 70.000],
+        [2.000, 67.500, 50.000, 5.000, 82.500, 70.000],
+        [-10.000, 70.001, 55.000, 190.000, 79.999, 65.000],
+        [17.500, 67.500, -4.000, 32.500, 82.500, 33.000],
+        [15.000, 67.500, -3.000, 35.000, 82.500, 0.000],
+        [40.000, 54.510, -4.000, 55.000, 69.510, 33.000],
+        [37.500, 54.510, -3.000, 57.500, 69.510, 0.000],
+        [40.000, 80.490, -4.000, 55.000, 95.490, 33.000],
+        [37.500, 80.490, -3.000, 57.500, 95.490, 0.000],
+        [5.000, 25.000, 20.000, 55.000, 125.000, 80.000],
+        [0.000, 0.000, 0.000, 180.000, 150.000, 20.000],
+        [147.500, 67.500, -4.000, 162.500, 82.500, 33.000],
+        [145.000, 67.500, -3.000, 165.000, 82.500, 0.000],
+        [125.000, 80.490, -4.000, 140.000, 95.490, 33.000],
+        [122.500, 80.490, -3.000, 142.500, 95.490, 0.000],
+        [125.000, 54.510, -4.000, 140.000, 69.510, 33.000],
+        [122.500, 54.510, -3.000, 142.500, 69.510, 0.000],
+        [125.000, 25.000, 20.000, 175.000, 125.000, 80.000],
+    ];
+    let s = read_step(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.model;
+    assert_eq!(m.volumes.len(), 18);
+    for (v, want) in gmsh.iter().enumerate() {
+        let (lo, hi) = volume_bbox(m, v).unwrap();
+        let got = [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z];
+        for k in 0..6 {
+            assert!(
+                (got[k] - want[k]).abs() < 0.01,
+                "volume {v} {:?}: {got:?}, Gmsh {want:?}",
+                m.volumes[v].name
+            );
+        }
+    }
+    let (lo, hi) = m.bbox().unwrap();
+    assert!((lo.z + 4.0).abs() < 1e-6 && (hi.z - 80.0).abs() < 1e-6);
+    let names: Vec<&str> = m.volumes.iter().filter_map(|v| v.name.as_deref()).collect();
+    assert!(names.contains(&"nut (rod-assembly_1/nut_1)"), "{names:?}");
+    assert!(names.contains(&"l-bracket (l-bracket-assembly_2/l-bracket_1)"));
+}
