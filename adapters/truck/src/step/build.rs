@@ -6,7 +6,7 @@ use std::f64::consts::TAU;
 use std::sync::Arc;
 
 use bubblemesh_analytic::{CircleArc, EllipseArc, HyperbolaArc, Line};
-use bubblemesh_core::geom::Curve;
+use bubblemesh_core::geom::{Curve, P3};
 use bubblemesh_core::model::{Edge, EdgeUse, Face, Loop, Model, Vertex, Volume};
 
 pub use super::geometry::MAX_CONTROL_POINTS;
@@ -246,23 +246,103 @@ fn add_scope(
     info: &mut StepInfo,
 ) -> Result<(), StepError> {
     let t = geo.t;
-    // vertices
-    let mut vmap: HashMap<u64, u32> = HashMap::new();
+    let mut points: HashMap<u64, P3> = HashMap::new();
     for &id in &scope.vertices {
         let a = t.args(id, &["VERTEX_POINT"], 2)?;
-        let point = geo.point(t.r(id, &a[1], "vertex_geometry")?)?;
+        points.insert(id, geo.point(t.r(id, &a[1], "vertex_geometry")?)?);
+    }
+
+    // degenerate edges: on a LINE, from a vertex to itself or to one within
+    // the tolerance (written at poles and collapsed boundaries): the
+    // vertices are one vertex and the edge is no model edge
+    let line_tol = (REL_TOL * geo.vertex_extent).max(geo.uncertainty);
+    let mut parent: HashMap<u64, u64> = HashMap::new();
+    fn find(parent: &HashMap<u64, u64>, mut v: u64) -> u64 {
+        while let Some(&p) = parent.get(&v) {
+            v = p;
+        }
+        v
+    }
+    let mut degenerate: HashSet<u64> = HashSet::new();
+    for &id in &scope.edges {
+        let r = &erec[&id];
+        if !is_line(t, r.geom, 0) {
+            continue;
+        }
+        if r.v1 == r.v2 || (points[&r.v1] - points[&r.v2]).norm() <= line_tol {
+            degenerate.insert(id);
+            let (a, b) = (find(&parent, r.v1), find(&parent, r.v2));
+            if a != b {
+                parent.insert(a.max(b), a.min(b));
+            }
+        }
+    }
+    // the scope's edges with merged vertices
+    let erec_own: HashMap<u64, EdgeRec>;
+    let erec = if parent.is_empty() {
+        erec
+    } else {
+        erec_own = scope
+            .edges
+            .iter()
+            .map(|&id| {
+                let r = &erec[&id];
+                (
+                    id,
+                    EdgeRec {
+                        v1: find(&parent, r.v1),
+                        v2: find(&parent, r.v2),
+                        geom: r.geom,
+                        same_sense: r.same_sense,
+                    },
+                )
+            })
+            .collect();
+        &erec_own
+    };
+
+    // vertices: one per merged class
+    let mut vmap: HashMap<u64, u32> = HashMap::new();
+    for &id in &scope.vertices {
+        if parent.contains_key(&id) {
+            continue;
+        }
         vmap.insert(id, model.vertices.len() as u32);
         info.vertex_ids.push(id);
         model.vertices.push(Vertex {
-            point,
+            point: points[&id],
             name: Some(format!("#{id}")),
         });
     }
+    for &id in &scope.vertices {
+        let root = find(&parent, id);
+        if root != id {
+            vmap.insert(id, vmap[&root]);
+        }
+    }
 
-    // faces, raw
+    // faces, raw, without their degenerate edges (a bound made of
+    // degenerate edges only is its vertex)
     let mut raws = Vec::with_capacity(scope.faces.len());
     for &id in &scope.faces {
-        raws.push(read_face(t, id, erec)?);
+        let mut raw = read_face(t, id, erec)?;
+        if !degenerate.is_empty() {
+            let mut bounds = Vec::with_capacity(raw.bounds.len());
+            for b in std::mem::take(&mut raw.bounds) {
+                let kept: Vec<Use> = b
+                    .iter()
+                    .copied()
+                    .filter(|u| !degenerate.contains(&u.edge))
+                    .collect();
+                if kept.is_empty() {
+                    raw.vertex_loops.push(erec[&b[0].edge].v1);
+                } else {
+                    bounds.push(kept);
+                }
+            }
+            raw.bounds = bounds;
+        }
+        raws.push(raw);
     }
 
     // seams: edges used twice by one face
@@ -302,6 +382,10 @@ fn add_scope(
     // model edges: every EDGE_CURVE but the seams used only as seams
     let mut emap: HashMap<u64, u32> = HashMap::new();
     for &id in &scope.edges {
+        if degenerate.contains(&id) {
+            info.degenerate_edges.push(id);
+            continue;
+        }
         if any_use.contains(&id) && !non_seam_use.contains(&id) {
             info.seams.push(id);
             continue;
@@ -363,6 +447,29 @@ fn add_scope(
         });
     }
     Ok(())
+}
+
+/// Whether curve `id` is a LINE (possibly as the 3D curve of a
+/// SURFACE_CURVE / SEAM_CURVE or the basis of a TRIMMED_CURVE).
+fn is_line(t: &Table, id: u64, depth: usize) -> bool {
+    let Ok(e) = t.get(id) else {
+        return false;
+    };
+    if e.is("LINE") {
+        return true;
+    }
+    if depth > 8 {
+        return false;
+    }
+    for n in ["SURFACE_CURVE", "SEAM_CURVE", "TRIMMED_CURVE"] {
+        if let Some(p) = e.part(n) {
+            return p
+                .get(1)
+                .and_then(|x| t.r(id, x, "curve").ok())
+                .is_some_and(|c| is_line(t, c, depth + 1));
+        }
+    }
+    false
 }
 
 /// A shell reference, through ORIENTED_CLOSED_SHELL: (shell id, orientation).
@@ -546,7 +653,8 @@ fn build_edge(
     };
     let (curve, t0, t1): (Arc<dyn Curve>, f64, f64) = match geo.curve(r.geom)? {
         CurveGeom::Line { p: _, d: _ } => {
-            if closed || (b - a).norm() <= tol {
+            // degenerate lines were taken out before: what is left is refused
+            if closed || (b - a).norm() <= 1e-12 * geo.extent {
                 return Err(t.err(id, "a closed edge on a LINE"));
             }
             (Arc::new(Line::new(a, b).map_err(bad)?), 0.0, 1.0)

@@ -103,6 +103,12 @@ pub struct Geo<'a> {
     /// Diagonal of the bounding box of all the file's cartesian points
     /// (sizes infinite lines used as profiles).
     pub extent: f64,
+    /// Diagonal of the bounding box of the file's `VERTEX_POINT`s (the
+    /// size of the parts themselves, without construction points far away).
+    pub vertex_extent: f64,
+    /// The largest `UNCERTAINTY_MEASURE_WITH_UNIT` of the file (its distance
+    /// accuracy, in the file's length unit; 0 when none is given).
+    pub uncertainty: f64,
     /// The motion applied to every point and direction read (a part's
     /// placement in its assembly; the identity otherwise). Everything built
     /// from points and directions — placements, vectors, control points —
@@ -147,10 +153,58 @@ impl<'a> Geo<'a> {
             .sum::<f64>()
             .sqrt()
             .max(1.0);
+        let mut vlo = [f64::INFINITY; 3];
+        let mut vhi = [f64::NEG_INFINITY; 3];
+        let mut uncertainty: f64 = 0.0;
+        for e in t.ents.values() {
+            if let Some(p) = e.part("VERTEX_POINT") {
+                let q = match p.get(1) {
+                    Some(Parameter::Ref(truck_stepio::r#in::ruststep::ast::Name::Entity(q))) => *q,
+                    _ => continue,
+                };
+                let Some(Parameter::List(c)) = t
+                    .ents
+                    .get(&q)
+                    .and_then(|pe| pe.part("CARTESIAN_POINT"))
+                    .and_then(|pp| pp.get(1))
+                else {
+                    continue;
+                };
+                for (k, x) in c.iter().take(3).enumerate() {
+                    if let Parameter::Real(x) = x {
+                        if x.is_finite() {
+                            vlo[k] = vlo[k].min(*x);
+                            vhi[k] = vhi[k].max(*x);
+                        }
+                    }
+                }
+            }
+            if let Some(p) = e.part("UNCERTAINTY_MEASURE_WITH_UNIT") {
+                if let Some(u) = p.first().and_then(|x| t.real(0, x, "value_component").ok()) {
+                    if u > 0.0 {
+                        uncertainty = uncertainty.max(u);
+                    }
+                }
+            }
+        }
+        let vertex_extent = (0..3)
+            .map(|k| (vhi[k] - vlo[k]).max(0.0))
+            .map(|d| if d.is_finite() { d * d } else { 0.0 })
+            .sum::<f64>()
+            .sqrt()
+            .min(extent);
+        // an uncertainty as large as the parts is a mistake of the writer
+        let uncertainty = if uncertainty < 1e-2 * vertex_extent.max(extent) {
+            uncertainty
+        } else {
+            0.0
+        };
         Geo {
             t,
             angle,
             extent,
+            vertex_extent,
+            uncertainty,
             xf: Rigid::identity(),
         }
     }
@@ -161,6 +215,8 @@ impl<'a> Geo<'a> {
             t: self.t,
             angle: self.angle,
             extent: self.extent,
+            vertex_extent: self.vertex_extent,
+            uncertainty: self.uncertainty,
             xf,
         }
     }

@@ -95,6 +95,9 @@ pub struct StepInfo {
     pub shells: Vec<ShellInfo>,
     /// `EDGE_CURVE`s absorbed as seams of periodic faces (not model edges).
     pub seams: Vec<u64>,
+    /// Degenerate `EDGE_CURVE`s (zero-length lines): their vertices are one
+    /// model vertex and they are not model edges.
+    pub degenerate_edges: Vec<u64>,
 }
 
 /// One shell of the file.

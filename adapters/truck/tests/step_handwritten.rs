@@ -1,6 +1,7 @@
-//! STEP assemblies: every part instance is placed by its transformation
-//! (nested assemblies compose), a part used twice gives two volumes, and
-//! each volume is named after its product and instance path.
+//! STEP text written here, entity by entity: assemblies (every part
+//! instance is placed by its transformation, nested assemblies compose, a
+//! part used twice gives two volumes named after the product and instance
+//! path), degenerate edges, boundaries off their surfaces.
 
 use bubblemesh_core::geom::P3;
 use bubblemesh_truck::{parse_step, read_step, step::volume_bbox};
@@ -34,8 +35,9 @@ impl Writer {
     }
     /// The box [0, s0] × [0, s1] × [0, s2] as a MANIFOLD_SOLID_BREP whose
     /// vertices are `off` away from its planes (0 for an exact box): returns
-    /// the solid's id.
-    fn box_solid(&mut self, s: [f64; 3], off: f64) -> usize {
+    /// the solid's id. `degenerate`: the first face's loop also has a
+    /// zero-length edge (a LINE from a vertex to itself) at its first corner.
+    fn box_solid(&mut self, s: [f64; 3], off: f64, degenerate: bool) -> usize {
         let corner = |i: usize| [0, 1, 2].map(|k| if i >> k & 1 == 1 { s[k] } else { 0.0 });
         let mut v = [0usize; 8];
         for (i, vi) in v.iter_mut().enumerate() {
@@ -76,6 +78,16 @@ impl Writer {
                     cyc.reverse();
                 }
                 let mut oes = Vec::new();
+                if degenerate && faces.is_empty() {
+                    let c = corner(cyc[0]);
+                    let p = self.point(c);
+                    let dd = self.dir([0.0, 0.0, 1.0]);
+                    let vec = self.add(format!("VECTOR('',#{dd},1.0)"));
+                    let line = self.add(format!("LINE('',#{p},#{vec})"));
+                    let v0 = v[cyc[0]];
+                    let e = self.add(format!("EDGE_CURVE('',#{v0},#{v0},#{line},.T.)"));
+                    oes.push(self.add(format!("ORIENTED_EDGE('',*,*,#{e},.T.)")));
+                }
                 for m in 0..4 {
                     let (p, q) = (cyc[m], cyc[(m + 1) % 4]);
                     let (e, fwd) = match edges.get(&(p, q)) {
@@ -189,7 +201,7 @@ fn nested_assembly() -> String {
     let ctx = context(&mut w, None);
     let origin = w.axis([0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
     // the part
-    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0);
+    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0, false);
     let box_pd = w.product("box", app);
     let box_sr = w.add(format!("SHAPE_REPRESENTATION('',(#{origin}),#{ctx})"));
     let brep = w.add(format!(
@@ -274,7 +286,7 @@ fn single_part_volume_is_named_after_its_product() {
     let app = w.add("APPLICATION_CONTEXT('')");
     let ctx = context(&mut w, None);
     let origin = w.axis([0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
-    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0);
+    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0, false);
     let pd = w.product("lonely box", app);
     let rep = w.add(format!(
         "ADVANCED_BREP_SHAPE_REPRESENTATION('',(#{solid},#{origin}),#{ctx})"
@@ -343,4 +355,22 @@ fn as1_assembly_parts_are_where_gmsh_puts_them() {
     let names: Vec<&str> = m.volumes.iter().filter_map(|v| v.name.as_deref()).collect();
     assert!(names.contains(&"nut (rod-assembly_1/nut_1)"), "{names:?}");
     assert!(names.contains(&"l-bracket (l-bracket-assembly_2/l-bracket_1)"));
+}
+
+/// A closed edge on a LINE (zero length, as some systems write at poles and
+/// collapsed boundaries) is read as its vertex, not refused.
+#[test]
+fn closed_edge_on_a_line_reads_as_its_vertex() {
+    let mut w = Writer::new();
+    let _ = w.add("APPLICATION_CONTEXT('')");
+    w.box_solid([1.0, 2.0, 3.0], 0.0, true);
+    let s = parse_step(&w.text(), "degenerate").unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.model;
+    assert_eq!(s.info.degenerate_edges.len(), 1);
+    assert_eq!((m.vertices.len(), m.edges.len(), m.faces.len()), (8, 12, 6));
+    assert_eq!(m.volumes.len(), 1);
+    assert!(m
+        .faces
+        .iter()
+        .all(|f| f.loops.len() == 1 && f.loops[0].edges.len() == 4));
 }
