@@ -637,6 +637,43 @@ impl<'a> Geo<'a> {
                 Revolution::new(Arc::new(tube), pl.o, pl.z).map_err(bad)?,
             ));
         }
+        if e.is("DEGENERATE_TOROIDAL_SURFACE") {
+            // a spindle torus (minor radius ≥ major): the outer "apple" or
+            // the inner "lemon" part, as select_outer says; the tube circle
+            // crosses the axis where R + r cos θ = 0, θ = ±θ₀, and the
+            // part is that circle's arc on the chosen side, revolved
+            let a = self.t.args(id, &["DEGENERATE_TOROIDAL_SURFACE"], 5)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let big = self.t.real(id, &a[2], "major_radius")?;
+            let small = self.positive(id, &a[3], "minor_radius")?;
+            let outer = self.t.boolean(id, &a[4], "select_outer")?;
+            if !(big >= 0.0) {
+                return Err(self.t.err(id, format!("major_radius {big} is negative")));
+            }
+            let (t0, t1) = if big >= small {
+                // not degenerate after all: the whole tube
+                (0.0, std::f64::consts::TAU)
+            } else {
+                let th = (-big / small).acos();
+                if outer {
+                    (-th, th)
+                } else {
+                    (th, std::f64::consts::TAU - th)
+                }
+            };
+            let tube = bubblemesh_analytic::CircleArc::with_basis(
+                pl.o + pl.x * big,
+                pl.x,
+                pl.z,
+                small,
+                t0,
+                t1,
+            )
+            .map_err(|g| self.t.err(id, g.to_string()))?;
+            return curved(Arc::new(
+                Revolution::new(Arc::new(tube), pl.o, pl.z).map_err(bad)?,
+            ));
+        }
         if e.is("B_SPLINE_SURFACE_WITH_KNOTS") {
             return curved(Arc::new(self.spline_surface(id)?));
         }
@@ -663,8 +700,68 @@ impl<'a> Geo<'a> {
         Err(self.t.err(
             id,
             "unsupported surface type (supported: PLANE, CYLINDRICAL_SURFACE, CONICAL_SURFACE, \
-             SPHERICAL_SURFACE, TOROIDAL_SURFACE, B_SPLINE_SURFACE_WITH_KNOTS and its rational \
+             SPHERICAL_SURFACE, TOROIDAL_SURFACE, DEGENERATE_TOROIDAL_SURFACE, \
+             B_SPLINE_SURFACE_WITH_KNOTS and its rational \
              form, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION, RECTANGULAR_TRIMMED_SURFACE)",
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The table of a DATA section body.
+    fn table(body: &str) -> Table {
+        let text = format!(
+            "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\nFILE_NAME('','',(''),(''),'','','');\nFILE_SCHEMA(('X'));\nENDSEC;\nDATA;\n{body}ENDSEC;\nEND-ISO-10303-21;\n"
+        );
+        let ex = truck_stepio::r#in::ruststep::parser::parse(&text).unwrap();
+        let inst: Vec<_> = ex.data.into_iter().flat_map(|d| d.entities).collect();
+        Table::new("test", inst).unwrap()
+    }
+
+    /// Largest and smallest distance from the z axis over a grid of the
+    /// surface, and the largest residual of `(ρ ∓ R)² + z² = r²`.
+    fn spindle_samples(s: &dyn Surface, big: f64, small: f64, inner: bool) -> (f64, f64, f64) {
+        let (u, v) = s.domain();
+        let (mut lo, mut hi, mut res) = (f64::INFINITY, 0.0f64, 0.0f64);
+        for i in 0..=20 {
+            for j in 0..=20 {
+                let p = s.point(
+                    u[0] + (u[1] - u[0]) * i as f64 / 20.0,
+                    v[0] + (v[1] - v[0]) * j as f64 / 20.0,
+                );
+                let rho = (p.x * p.x + p.y * p.y).sqrt();
+                let c = if inner { rho + big } else { rho - big };
+                res = res.max((c * c + p.z * p.z - small * small).abs());
+                lo = lo.min(rho);
+                hi = hi.max(rho);
+            }
+        }
+        (lo, hi, res)
+    }
+
+    /// DEGENERATE_TOROIDAL_SURFACE is the outer (apple) part of a spindle
+    /// torus with select_outer, the inner (lemon) part without.
+    #[test]
+    fn degenerate_torus_is_the_selected_part_of_a_spindle_torus() {
+        for (flag, inner) in [(".T.", false), (".F.", true)] {
+            let t = table(&format!(
+                "#1 = DEGENERATE_TOROIDAL_SURFACE('',#2,1.,2.,{flag});\n\
+                 #2 = AXIS2_PLACEMENT_3D('',#3,$,$);\n\
+                 #3 = CARTESIAN_POINT('',(0.,0.,0.));\n"
+            ));
+            let g = Geo::new(&t);
+            let s = g.surface(1).unwrap();
+            let (lo, hi, res) = spindle_samples(s.surface.as_ref(), 1.0, 2.0, inner);
+            assert!(res < 1e-9, "{flag}: off the torus by {res}");
+            assert!(lo < 1e-9, "{flag}: reaches the axis");
+            let want = if inner { 1.0 } else { 3.0 };
+            assert!(
+                (hi - want).abs() < 1e-2,
+                "{flag}: widest {hi}, expected {want}"
+            );
+        }
     }
 }
