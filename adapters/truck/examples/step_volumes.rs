@@ -1,4 +1,5 @@
-//! Prints each volume a STEP file becomes, its name and bounding box:
+//! Prints each volume a STEP file becomes, its name and bounding box, and
+//! the largest gap between a face's boundary and its surface:
 //! `cargo run --example step_volumes FILE`.
 use bubblemesh_truck::{read_step, step::volume_bbox};
 
@@ -23,6 +24,19 @@ fn main() {
                     )
                 });
                 println!("  {i} {:?} {}", v.name, b.unwrap_or_default());
+            }
+            let worst = s
+                .info
+                .face_gap
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(b.1));
+            if let Some((f, g)) = worst {
+                println!(
+                    "largest boundary gap {g:.3e} (face {f}, #{}); {} degenerate edges",
+                    s.info.face_ids[f],
+                    s.info.degenerate_edges.len()
+                );
             }
             if let Some((lo, hi)) = m.bbox() {
                 println!("all {lo:?} {hi:?}");

@@ -400,7 +400,8 @@ fn add_scope(
     // faces
     let mut fmap: HashMap<u64, u32> = HashMap::new();
     for (f, seams) in raws.iter().zip(&seam_of_face) {
-        let face = build_face(geo, f, seams, erec, &emap, &vmap, model)?;
+        let (face, gap) = build_face(geo, f, seams, erec, &emap, &vmap, model)?;
+        info.face_gap.push(gap);
         fmap.insert(f.id, model.faces.len() as u32);
         info.face_ids.push(f.id);
         info.face_same_sense.push(f.same_sense);
@@ -752,7 +753,7 @@ fn build_face(
     emap: &HashMap<u64, u32>,
     vmap: &HashMap<u64, u32>,
     model: &Model,
-) -> Result<Face, StepError> {
+) -> Result<(Face, f64), StepError> {
     let t = geo.t;
     let ends = |u: &Use| {
         let r = &erec[&u.edge];
@@ -841,14 +842,20 @@ fn build_face(
     }
 
     let sg = geo.surface(f.surface)?;
-    crate::face_build::face_from_loops(
+    // boundary points off their surface: 1e-3 of the file, or of the parts
+    // (1e-2), or ten times the file's own uncertainty, whichever is largest
+    // (OpenCascade heals and meshes faces whose boundaries are that far off)
+    let far = (1e-3 * geo.extent)
+        .max(1e-2 * geo.vertex_extent)
+        .max(10.0 * geo.uncertainty);
+    crate::face_build::face_from_loops_within(
         sg.surface.clone(),
         sg.planar,
         f.same_sense,
         loops,
         embedded,
         model,
-        geo.extent,
+        far,
         format!("#{}", f.id),
     )
     .map_err(|m| t.err(f.id, format!("{m} (surface #{})", f.surface)))

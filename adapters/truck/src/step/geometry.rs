@@ -193,8 +193,9 @@ impl<'a> Geo<'a> {
             .sum::<f64>()
             .sqrt()
             .min(extent);
-        // an uncertainty as large as the parts is a mistake of the writer
-        let uncertainty = if uncertainty < 1e-2 * vertex_extent.max(extent) {
+        // an uncertainty a tenth of the parts' size or more is a mistake of
+        // the writer (or a unit mix-up): ignored
+        let uncertainty = if uncertainty < 0.1 * vertex_extent {
             uncertainty
         } else {
             0.0

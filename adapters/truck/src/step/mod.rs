@@ -95,6 +95,11 @@ pub struct StepInfo {
     pub shells: Vec<ShellInfo>,
     /// `EDGE_CURVE`s absorbed as seams of periodic faces (not model edges).
     pub seams: Vec<u64>,
+    /// For each model face, the largest distance of its boundary (edge
+    /// samples, embedded vertices) from its surface, in the file's length
+    /// unit: boundaries off their surface are accepted up to a tolerance
+    /// and projected onto it.
+    pub face_gap: Vec<f64>,
     /// Degenerate `EDGE_CURVE`s (zero-length lines): their vertices are one
     /// model vertex and they are not model edges.
     pub degenerate_edges: Vec<u64>,
