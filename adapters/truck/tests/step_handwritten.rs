@@ -409,7 +409,7 @@ fn file_uncertainty_widens_the_accepted_gap() {
                 assert!((g - 0.1).abs() < 1e-6, "gap {g}");
             }
             None => {
-                let e = r.err().expect("0.1 off without an uncertainty is refused");
+                let e = r.expect_err("0.1 off without an uncertainty is refused");
                 assert!(e.to_string().contains("off its surface"), "{e}");
             }
         }
