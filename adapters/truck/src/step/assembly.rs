@@ -173,33 +173,49 @@ impl<'t, 'g> Index<'t, 'g> {
         pds.extend(t.ids_of("PRODUCT_DEFINITION_WITH_ASSOCIATED_DOCUMENTS"));
         pds.sort_unstable();
         for id in pds {
-            for rep in ix.reps_of(id) {
+            for rep in ix.direct_reps(id) {
                 ix.pd_of_rep.entry(rep).or_insert(id);
             }
         }
         Ok(ix)
     }
 
-    /// The representations of a product definition's shape, closed under
-    /// plain representation relationships.
-    fn reps_of(&self, pd: u64) -> Vec<u64> {
+    /// The representations a product definition's shape names directly.
+    fn direct_reps(&self, pd: u64) -> Vec<u64> {
         let mut out: Vec<u64> = Vec::new();
         for pds in self.pds_of.get(&pd).into_iter().flatten() {
             out.extend(self.reps_of_pds.get(pds).into_iter().flatten());
         }
-        self.closure(out)
+        out
     }
 
-    fn closure(&self, mut stack: Vec<u64>) -> Vec<u64> {
-        let mut seen: HashSet<u64> = HashSet::new();
+    /// The representations of a product definition's shape, closed under
+    /// plain representation relationships (not crossing into another
+    /// product's own shape: a child's is placed through its occurrence).
+    fn reps_of(&self, pd: u64) -> Vec<u64> {
+        self.closure(self.direct_reps(pd), Some(pd))
+    }
+
+    /// `start` and the representations linked to it by plain
+    /// relationships, except those that are the shape of a product other
+    /// than `owner`.
+    fn closure(&self, mut stack: Vec<u64>, owner: Option<u64>) -> Vec<u64> {
+        let mut seen: HashSet<u64> = stack.iter().copied().collect();
         let mut out = Vec::new();
         while let Some(r) = stack.pop() {
-            if seen.insert(r) {
-                out.push(r);
-                stack.extend(self.same.get(&r).into_iter().flatten());
+            out.push(r);
+            for &n in self.same.get(&r).into_iter().flatten() {
+                let foreign = matches!(
+                    (self.pd_of_rep.get(&n), owner),
+                    (Some(&o), Some(w)) if o != w
+                );
+                if !foreign && seen.insert(n) {
+                    stack.push(n);
+                }
             }
         }
         out.sort_unstable();
+        out.dedup();
         out
     }
 
@@ -384,11 +400,10 @@ impl Walk<'_, '_, '_> {
                     let origin = self.ix.placement(t.r(map, &ma[0], "mapping_origin")?)?;
                     let mapped = t.r(map, &ma[1], "mapped_representation")?;
                     let m = xf.then_after(&target.then_after(&origin.inverse()));
-                    let sub = self.ix.closure(vec![mapped]);
-                    let sub_name = sub
-                        .iter()
-                        .find_map(|r| self.ix.pd_of_rep.get(r))
-                        .map_or_else(|| name.to_string(), |&pd| self.ix.product_name(pd));
+                    let owner = self.ix.pd_of_rep.get(&mapped).copied();
+                    let sub = self.ix.closure(vec![mapped], owner);
+                    let sub_name =
+                        owner.map_or_else(|| name.to_string(), |pd| self.ix.product_name(pd));
                     self.items(&sub, m, &sub_name, path, depth + 1)?;
                 }
             }
