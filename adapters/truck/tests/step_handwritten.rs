@@ -438,3 +438,47 @@ fn realstep_files_once_refused_read() {
         assert_eq!(s.model.volumes.len(), 1, "{f}");
     }
 }
+
+/// A shape that places a part's representation twice through MAPPED_ITEMs
+/// (target ∘ origin⁻¹ each), the part being the assembly's child by an
+/// occurrence without a placement of its own: two volumes, placed, named
+/// after the part.
+#[test]
+fn mapped_items_place_a_representation_twice() {
+    let mut w = Writer::new();
+    let app = w.add("APPLICATION_CONTEXT('')");
+    let ctx = context(&mut w, None);
+    let origin = w.axis([0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let solid = w.box_solid([1.0, 2.0, 3.0], 0.0, false);
+    let box_pd = w.product("box", app);
+    let brep = w.add(format!(
+        "ADVANCED_BREP_SHAPE_REPRESENTATION('',(#{solid},#{origin}),#{ctx})"
+    ));
+    w.shape(box_pd, brep);
+    let map = w.add(format!("REPRESENTATION_MAP(#{origin},#{brep})"));
+    let t1 = w.axis([20.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let t2 = w.axis([40.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+    let m1 = w.add(format!("MAPPED_ITEM('',#{map},#{t1})"));
+    let m2 = w.add(format!("MAPPED_ITEM('',#{map},#{t2})"));
+    let pallet_pd = w.product("pallet", app);
+    let sr = w.add(format!(
+        "SHAPE_REPRESENTATION('',(#{origin},#{m1},#{m2}),#{ctx})"
+    ));
+    w.shape(pallet_pd, sr);
+    w.add(format!(
+        "NEXT_ASSEMBLY_USAGE_OCCURRENCE('1','box_1','',#{pallet_pd},#{box_pd},$)"
+    ));
+    let s = parse_step(&w.text(), "mapped").unwrap_or_else(|e| panic!("{e}"));
+    let m = &s.model;
+    let names: Vec<_> = m.volumes.iter().map(|v| v.name.clone()).collect();
+    assert_eq!(m.volumes.len(), 2, "{names:?}");
+    // x + 20; and z' = x, x' = y, y' = z: (x, y, z) ↦ (40 + z, x, y)
+    for (v, name, b) in [
+        (0, "box [1]", [20.0, 0.0, 0.0, 21.0, 2.0, 3.0]),
+        (1, "box [2]", [40.0, 0.0, 0.0, 43.0, 1.0, 2.0]),
+    ] {
+        assert_eq!(m.volumes[v].name.as_deref(), Some(name));
+        let (lo, hi) = volume_bbox(m, v).unwrap();
+        assert_box(lo, hi, b, name);
+    }
+}

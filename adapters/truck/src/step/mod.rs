@@ -27,7 +27,11 @@
 //!   the non-seam edge uses; vertices of `VERTEX_LOOP`s and of seams that are
 //!   on no loop (a sphere's pole, a cone's apex) are embedded vertices;
 //! - one volume per `MANIFOLD_SOLID_BREP` / `BREP_WITH_VOIDS` with the faces
-//!   of its outer and void shells.
+//!   of its outer and void shells, named after its product;
+//! - in an assembly (module `assembly`), all of that once per placed
+//!   instance of a part, moved by the instance's placement: a part used
+//!   twice is two volumes with their own faces, edges and vertices;
+//! - degenerate edges (a LINE of zero length) as their one vertex.
 //!
 //! Any entity that cannot be converted makes the read fail with a
 //! [`StepError`] naming it. Limits guard against hostile input: degree ≤
