@@ -618,7 +618,8 @@ fn read_face(t: &Table, id: u64, erec: &HashMap<u64, EdgeRec>) -> Result<FaceRaw
     })
 }
 
-/// Tolerance on distances, relative to the file's extent.
+/// Tolerance on distances, relative to the file's extent (raised to the
+/// file's `UNCERTAINTY_MEASURE_WITH_UNIT` where that is larger).
 const REL_TOL: f64 = 1e-6;
 
 /// An EDGE_CURVE as a model edge running along its curve's direction: from
@@ -643,7 +644,8 @@ fn build_edge(
     );
     let closed = va == vb;
     let bad = |g: bubblemesh_analytic::GeometryError| t.err(id, g.to_string());
-    let tol = REL_TOL * geo.extent;
+    // the file's own uncertainty where it is larger
+    let tol = (REL_TOL * geo.extent).max(geo.uncertainty);
     // angles of a conic: the second after the first, a full turn if closed
     let sweep = |ta: f64, tb: f64| {
         let mut tb = ta + (tb - ta).rem_euclid(TAU);
