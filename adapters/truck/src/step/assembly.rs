@@ -42,7 +42,8 @@ pub(crate) struct Instance {
     /// Part coordinates ↦ world coordinates.
     pub xf: Rigid,
     /// The product's name, with the path of instance names below the top
-    /// product when there is one: `nut (rod-assembly_1/nut_2)`.
+    /// product when there is one: `nut (rod-assembly_1/nut_2)`; a number
+    /// `[k]` added where names would repeat.
     pub name: String,
 }
 
@@ -413,7 +414,9 @@ impl Walk<'_, '_, '_> {
         let many = roots.len() > 1;
         for (k, root) in roots.into_iter().enumerate() {
             let mut n = name.to_string();
-            if !path.is_empty() {
+            // the path, unless it only repeats the name (an occurrence named
+            // after its product)
+            if !path.is_empty() && path != [name] {
                 n = format!("{n} ({})", path.join("/"));
             }
             if many {
