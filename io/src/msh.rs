@@ -1,8 +1,6 @@
 //! Gmsh MSH: writes 4.1 ASCII; reads 4.1 ASCII and 2.2 ASCII.
 //!
 //! Written layout (invariants):
-//! - `$PhysicalNames` (when a volume has a name): one physical group per
-//!   named volume, its tag the volume's, its name the volume's;
 //! - `$Entities` holds every entity of [`entity_table`]: tags are `id + 1`
 //!   per dimension; points carry the coordinates of their node (else the
 //!   centre of their bounding box, else the origin); curves, surfaces and
@@ -115,27 +113,6 @@ pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
     }
 
     writeln!(w, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
-    // Each named volume is a physical group of its own, tag = the volume's
-    // tag, named like it (a STEP assembly's volumes name their parts).
-    fn physical(e: &EntityInfo) -> Option<&str> {
-        (e.entity.dim == 3).then_some(e.name.as_deref()).flatten()
-    }
-    let named: Vec<(u64, &str)> = table
-        .iter()
-        .filter_map(|e| physical(e).map(|n| (tag(e.entity), n)))
-        .collect();
-    if !named.is_empty() {
-        writeln!(w, "$PhysicalNames\n{}", named.len())?;
-        for (t, n) in &named {
-            // a name is one quoted string: no quotes or line breaks inside
-            let n: String = n
-                .chars()
-                .map(|c| if c == '"' || c.is_control() { '\'' } else { c })
-                .collect();
-            writeln!(w, "3 {t} \"{n}\"")?;
-        }
-        writeln!(w, "$EndPhysicalNames")?;
-    }
     writeln!(w, "$Entities")?;
     let count = |d: u8| table.iter().filter(|e| e.entity.dim == d).count();
     writeln!(w, "{} {} {} {}", count(0), count(1), count(2), count(3))?;
@@ -148,13 +125,9 @@ pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
                 .unwrap_or_else(|| P3::from((lo.coords + hi.coords) * 0.5));
             writeln!(w, "{} {} 0", tag(e.entity), Xyz(&p))?;
         } else {
-            let phys = match physical(e) {
-                Some(_) => format!("1 {}", tag(e.entity)),
-                None => "0".to_string(),
-            };
             write!(
                 w,
-                "{} {} {} {phys} {}",
+                "{} {} {} 0 {}",
                 tag(e.entity),
                 Xyz(&lo),
                 Xyz(&hi),

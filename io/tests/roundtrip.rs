@@ -201,35 +201,3 @@ fn msh_output_reads_back_after_gmsh_round_trip_in_our_reader() {
     let (_d, _p, back) = roundtrip(&m, "g.msh");
     assert_same(&m, &back);
 }
-
-/// A named volume (a STEP part) is a physical group of its own, named like
-/// it: `$PhysicalNames` lists it and its `$Entities` line carries the tag;
-/// the file still reads back the same.
-#[test]
-fn msh_named_volume_is_a_named_physical_group() {
-    let mut m = sample_mesh();
-    let v = m
-        .entities
-        .iter_mut()
-        .find(|e| e.entity == EntityRef::new(3, 0))
-        .unwrap();
-    v.name = Some("nut (rod-assembly_1/nut_\"2\")".into());
-    let (_d, p, back) = roundtrip(&m, "named.msh");
-    assert_same(&m, &back);
-    let text = std::fs::read_to_string(p).unwrap();
-    assert!(
-        text.contains(
-            "$PhysicalNames\n1\n3 1 \"nut (rod-assembly_1/nut_'2')\"\n$EndPhysicalNames\n"
-        ),
-        "{text}"
-    );
-    // the volume's entity line: tag, box, one physical tag (1), 1 surface
-    let ents = text.split("$Entities\n").nth(1).unwrap();
-    let vol = ents.lines().nth(10).unwrap();
-    assert!(vol.starts_with("1 ") && vol.ends_with(" 1 1 1 1"), "{vol}");
-    // without names: no physical groups
-    let (_d, p, _) = roundtrip(&sample_mesh(), "plain.msh");
-    assert!(!std::fs::read_to_string(p)
-        .unwrap()
-        .contains("$PhysicalNames"));
-}
