@@ -48,7 +48,14 @@ pub fn triangulate(
     boundary: &[[usize; 2]],
     keep: impl Fn([f64; 2]) -> bool,
 ) -> Result<Vec<[usize; 3]>, ConnectError> {
-    let pts: Vec<Point2<f64>> = uv.iter().map(|p| Point2::new(p[0], p[1])).collect();
+    // spade refuses coordinates of magnitude below 2^-142 (TooSmall): such
+    // round-off residues of a zero (seen on parts placed by an assembly
+    // transform) are zero
+    let flush = |x: f64| if x.abs() < 1e-40 { 0.0 } else { x };
+    let pts: Vec<Point2<f64>> = uv
+        .iter()
+        .map(|p| Point2::new(flush(p[0]), flush(p[1])))
+        .collect();
     let mut conflict = None;
     let cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(
         pts,
@@ -567,6 +574,15 @@ mod tests {
             triangulate(&uv, &[], &[], |_| true),
             Err(ConnectError::Duplicate(..))
         ));
+    }
+
+    /// A coordinate that is a round-off residue of zero (below spade's
+    /// smallest accepted magnitude) triangulates as zero.
+    #[test]
+    fn underflowing_coordinate_is_zero() {
+        let uv = [[0.0, 0.0], [1.0, 1e-45], [0.0, 1.0]];
+        let t = triangulate(&uv, &[], &[], |_| true).unwrap();
+        assert_eq!(t.len(), 1);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 
 use std::sync::Arc;
 
-use bubblemesh_core::geom::Surface;
+use bubblemesh_core::geom::{Surface, P3};
 use bubblemesh_core::model::{Face, Loop, Model};
 
 use crate::face_view::FaceView;
@@ -34,27 +34,124 @@ pub(crate) fn face_from_loops(
     extent: f64,
     name: String,
 ) -> Result<Face, String> {
+    face_from_loops_within(
+        base,
+        planar,
+        same_sense,
+        loops,
+        embedded,
+        model,
+        1e-3 * extent,
+        name,
+    )
+    .map(|(f, _)| f)
+}
+
+/// The closest point of `s` to `p` by sampling: the best of a 48 × 48 grid
+/// over the surface's (finite) domain, refined by halving a 3 × 3 pattern
+/// around it. A fallback where Newton's inversion does not converge (a
+/// point well off the surface, a hint far from the answer); `None` on an
+/// infinite domain.
+pub(crate) fn closest_by_search(s: &dyn Surface, p: &P3) -> Option<[f64; 2]> {
+    let (u, v) = s.domain();
+    if ![u[0], u[1], v[0], v[1]].iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    const N: usize = 48;
+    let dist = |x: [f64; 2]| {
+        let d = (s.point(x[0], x[1]) - p).norm_squared();
+        if d.is_finite() {
+            d
+        } else {
+            f64::INFINITY
+        }
+    };
+    let mut best = ([u[0], v[0]], f64::INFINITY);
+    for i in 0..=N {
+        for j in 0..=N {
+            let x = [
+                u[0] + (u[1] - u[0]) * i as f64 / N as f64,
+                v[0] + (v[1] - v[0]) * j as f64 / N as f64,
+            ];
+            let d = dist(x);
+            if d < best.1 {
+                best = (x, d);
+            }
+        }
+    }
+    if !best.1.is_finite() {
+        return None;
+    }
+    let mut h = [(u[1] - u[0]) / N as f64, (v[1] - v[0]) / N as f64];
+    for _ in 0..60 {
+        let mut moved = false;
+        for du in [-1.0, 0.0, 1.0] {
+            for dv in [-1.0, 0.0, 1.0] {
+                let x = [
+                    (best.0[0] + du * h[0]).clamp(u[0], u[1]),
+                    (best.0[1] + dv * h[1]).clamp(v[0], v[1]),
+                ];
+                let d = dist(x);
+                if d < best.1 {
+                    best = (x, d);
+                    moved = true;
+                }
+            }
+        }
+        if !moved {
+            h = [0.5 * h[0], 0.5 * h[1]];
+        }
+    }
+    Some(best.0)
+}
+
+/// [`face_from_loops`] accepting boundary points up to `far` off the surface
+/// (they are projected onto it); also returns the largest such gap.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn face_from_loops_within(
+    base: Arc<dyn Surface>,
+    planar: bool,
+    same_sense: bool,
+    loops: Vec<Loop>,
+    embedded: Vec<u32>,
+    model: &Model,
+    far: f64,
+    name: String,
+) -> Result<(Face, f64), String> {
     // boundary samples in the base surface's (u,v), each loop unwrapped
-    let far = 1e-3 * extent;
     let mut hint: Option<[f64; 2]> = None;
     let mut loops_uv: Vec<Vec<[f64; 2]>> = Vec::new();
-    let invert = |p: &bubblemesh_core::geom::P3,
-                  hint: Option<[f64; 2]>,
-                  what: &str|
-     -> Result<[f64; 2], String> {
-        let uv = base.inverse(p, hint).ok_or_else(|| {
+    let gap = std::cell::Cell::new(0.0f64);
+    let invert = |p: &P3, hint: Option<[f64; 2]>, what: &str| -> Result<[f64; 2], String> {
+        let off = |uv: [f64; 2]| (base.point(uv[0], uv[1]) - p).norm();
+        let mut found = base.inverse(p, hint).map(|uv| (uv, off(uv)));
+        // Newton from the hint lost its way or stopped far off: a global
+        // search, by the surface's own seeds, then by sampling
+        if !found.is_some_and(|(_, d)| d <= far) {
+            let more = [
+                hint.and_then(|_| base.inverse(p, None)),
+                closest_by_search(base.as_ref(), p),
+            ];
+            for uv in more.into_iter().flatten() {
+                let d = off(uv);
+                if d.is_finite() && found.map_or(true, |(_, b)| d < b) {
+                    found = Some((uv, d));
+                }
+            }
+        }
+        let (uv, d) = found.ok_or_else(|| {
             format!(
                 "{what} ({:.6}, {:.6}, {:.6}) cannot be mapped onto its surface",
                 p.x, p.y, p.z
             )
         })?;
-        let d = (base.point(uv[0], uv[1]) - p).norm();
         if !(d <= far) {
             return Err(format!(
-                "{what} ({:.6}, {:.6}, {:.6}) lies {d:.3e} off its surface",
+                "{what} ({:.6}, {:.6}, {:.6}) lies {d:.3e} off its surface (at most {far:.3e} accepted)",
                 p.x, p.y, p.z
             ));
         }
+        gap.set(gap.get().max(d));
         Ok(uv)
     };
     const K: usize = 8;
@@ -144,13 +241,16 @@ pub(crate) fn face_from_loops(
     if planar {
         let mut order: Vec<usize> = (0..loops.len()).collect();
         order.sort_by(|&i, &j| area(&loops_uv[j]).total_cmp(&area(&loops_uv[i])));
-        return Ok(Face {
-            surface: base,
-            loops: order.iter().map(|&i| loops[i].clone()).collect(),
-            embedded_edges: vec![],
-            embedded_vertices: embedded,
-            name: Some(name),
-        });
+        return Ok((
+            Face {
+                surface: base,
+                loops: order.iter().map(|&i| loops[i].clone()).collect(),
+                embedded_edges: vec![],
+                embedded_vertices: embedded,
+                name: Some(name),
+            },
+            gap.get(),
+        ));
     }
     if keep[0] && keep[1] && !loops.is_empty() {
         return Err(errs("a face with boundary loops that wraps around its surface in both directions is not supported",
@@ -281,13 +381,16 @@ pub(crate) fn face_from_loops(
         loops
     };
     let surface: Arc<dyn Surface> = Arc::new(view);
-    Ok(Face {
-        surface,
-        loops,
-        embedded_edges: vec![],
-        embedded_vertices: embedded,
-        name: Some(name),
-    })
+    Ok((
+        Face {
+            surface,
+            loops,
+            embedded_edges: vec![],
+            embedded_vertices: embedded,
+            name: Some(name),
+        },
+        gap.get(),
+    ))
 }
 
 /// |signed area| of a closed polygon in (u,v).

@@ -99,7 +99,7 @@ const TAIL: &str = "ENDSEC;\nEND-ISO-10303-21;\n";
 /// missing face.
 #[test]
 fn unsupported_surface_is_named() {
-    let body = "#1 = ADVANCED_FACE('',(#6),#2,.T.);\n#6 = FACE_BOUND('',#7,.T.);\n#7 = VERTEX_LOOP('',#8);\n#8 = VERTEX_POINT('',#5);\n#2 = OFFSET_SURFACE('',#3,1.,.F.);\n#3 = PLANE('',#4);\n#4 = AXIS2_PLACEMENT_3D('',#5,$,$);\n#5 = CARTESIAN_POINT('',(0.,0.,0.));\n";
+    let body = "#1 = ADVANCED_FACE('',(#6),#2,.T.);\n#6 = FACE_BOUND('',#7,.T.);\n#7 = VERTEX_LOOP('',#8);\n#8 = VERTEX_POINT('',#5);\n#2 = OFFSET_SURFACE('',#3,1.,.F.);\n#3 = OFFSET_SURFACE('',#9,1.,.F.);\n#9 = PLANE('',#4);\n#4 = AXIS2_PLACEMENT_3D('',#5,$,$);\n#5 = CARTESIAN_POINT('',(0.,0.,0.));\n";
     let e = err(&format!("{HEAD}{body}{TAIL}"));
     assert!(
         e.contains("#2 OFFSET_SURFACE") && e.contains("unsupported"),

@@ -6,7 +6,7 @@ use std::f64::consts::TAU;
 use std::sync::Arc;
 
 use bubblemesh_analytic::{CircleArc, EllipseArc, HyperbolaArc, Line};
-use bubblemesh_core::geom::Curve;
+use bubblemesh_core::geom::{Curve, P3};
 use bubblemesh_core::model::{Edge, EdgeUse, Face, Loop, Model, Vertex, Volume};
 
 pub use super::geometry::MAX_CONTROL_POINTS;
@@ -40,36 +40,125 @@ struct FaceRaw {
     vertex_loops: Vec<u64>,
 }
 
-pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
-    let geo = Geo::new(t);
-    let mut model = Model {
-        source: Some(t.source.clone()),
-        ..Default::default()
-    };
-    let mut info = StepInfo::default();
+/// The entities one build pass turns into model entities, by STEP id
+/// (sorted): the whole file, or what one placed shape item reaches.
+#[derive(Default)]
+struct Scope {
+    vertices: Vec<u64>,
+    edges: Vec<u64>,
+    faces: Vec<u64>,
+    /// Solids, each a volume.
+    solids: Vec<u64>,
+    /// Shells recorded even when in no solid.
+    shells: Vec<u64>,
+}
 
-    // vertices
-    let mut vmap: HashMap<u64, u32> = HashMap::new();
-    for id in t.ids_of("VERTEX_POINT") {
-        let a = t.args(id, &["VERTEX_POINT"], 2)?;
-        let point = geo.point(t.r(id, &a[1], "vertex_geometry")?)?;
-        vmap.insert(id, model.vertices.len() as u32);
-        info.vertex_ids.push(id);
-        model.vertices.push(Vertex {
-            point,
-            name: Some(format!("#{id}")),
-        });
+impl Scope {
+    /// Every topological entity of the file.
+    fn everything(t: &Table) -> Self {
+        let both = |a: &str, b: &str| {
+            let mut v = t.ids_of(a);
+            v.extend(t.ids_of(b));
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        Scope {
+            vertices: t.ids_of("VERTEX_POINT"),
+            edges: t.ids_of("EDGE_CURVE"),
+            faces: both("ADVANCED_FACE", "FACE_SURFACE"),
+            solids: both("MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"),
+            shells: both("CLOSED_SHELL", "OPEN_SHELL"),
+        }
     }
 
-    // edge records
+    /// What the shape items `roots` (solids, shell-based surface models,
+    /// shells) reach.
+    fn reachable(
+        t: &Table,
+        roots: &[u64],
+        erec: &HashMap<u64, EdgeRec>,
+    ) -> Result<Self, StepError> {
+        let mut sc = Scope::default();
+        let mut shells = Vec::new();
+        for &r in roots {
+            let e = t.get(r)?;
+            if e.is("MANIFOLD_SOLID_BREP") || e.is("BREP_WITH_VOIDS") {
+                sc.solids.push(r);
+                shells.extend(solid_shells(t, r)?.into_iter().map(|(s, _)| s));
+            } else if e.is("SHELL_BASED_SURFACE_MODEL") {
+                let a = t.args(r, &["SHELL_BASED_SURFACE_MODEL"], 2)?;
+                shells.extend(t.refs(r, &a[1], "sbsm_boundary")?);
+            } else {
+                shells.push(r);
+            }
+        }
+        for s in shells {
+            let (sid, _) = resolve_shell(t, s)?;
+            sc.shells.push(sid);
+            let a = t.args(sid, &["CLOSED_SHELL", "OPEN_SHELL"], 2)?;
+            for f in t.refs(sid, &a[1], "cfs_faces")? {
+                let fid = if t.get(f)?.is("ORIENTED_FACE") {
+                    let b = t.args(f, &["ORIENTED_FACE"], 4)?;
+                    t.r(f, &b[2], "face_element")?
+                } else {
+                    f
+                };
+                sc.faces.push(fid);
+            }
+        }
+        sc.faces.sort_unstable();
+        sc.faces.dedup();
+        for &f in &sc.faces {
+            let raw = read_face(t, f, erec)?;
+            for u in raw.bounds.iter().flatten() {
+                sc.edges.push(u.edge);
+                let r = &erec[&u.edge];
+                sc.vertices.extend([r.v1, r.v2]);
+            }
+            sc.vertices.extend(raw.vertex_loops);
+        }
+        for v in [
+            &mut sc.vertices,
+            &mut sc.edges,
+            &mut sc.solids,
+            &mut sc.shells,
+        ] {
+            v.sort_unstable();
+            v.dedup();
+        }
+        Ok(sc)
+    }
+}
+
+/// The shells of a solid: (shell reference, `true` for the outer one).
+fn solid_shells(t: &Table, id: u64) -> Result<Vec<(u64, bool)>, StepError> {
+    let e = t.get(id)?;
+    let a = t.args(id, &["MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"], 2)?;
+    let mut shells = vec![(t.r(id, &a[1], "outer")?, true)];
+    if e.is("BREP_WITH_VOIDS") {
+        let voids = match e.part("BREP_WITH_VOIDS") {
+            Some(p) if e.records.len() > 1 => p.first(),
+            _ => a.get(2),
+        };
+        if let Some(v) = voids {
+            for s in t.refs(id, v, "voids")? {
+                shells.push((s, false));
+            }
+        }
+    }
+    Ok(shells)
+}
+
+/// Every EDGE_CURVE's vertices, geometry and sense.
+fn edge_records(t: &Table) -> Result<HashMap<u64, EdgeRec>, StepError> {
     let mut erec: HashMap<u64, EdgeRec> = HashMap::new();
-    let edge_ids = t.ids_of("EDGE_CURVE");
-    for &id in &edge_ids {
+    for id in t.ids_of("EDGE_CURVE") {
         let a = t.args(id, &["EDGE_CURVE"], 5)?;
         let v1 = t.r(id, &a[1], "edge_start")?;
         let v2 = t.r(id, &a[2], "edge_end")?;
         for v in [v1, v2] {
-            if !vmap.contains_key(&v) {
+            if !t.get(v)?.is("VERTEX_POINT") {
                 return Err(t.err(
                     id,
                     format!(
@@ -91,15 +180,169 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
             },
         );
     }
+    Ok(erec)
+}
 
-    // faces, raw
-    let mut face_ids = t.ids_of("ADVANCED_FACE");
-    face_ids.extend(t.ids_of("FACE_SURFACE"));
-    face_ids.sort_unstable();
-    face_ids.dedup();
-    let mut raws = Vec::with_capacity(face_ids.len());
-    for &id in &face_ids {
-        raws.push(read_face(t, id, &erec)?);
+pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
+    let geo = Geo::new(t);
+    let mut model = Model {
+        source: Some(t.source.clone()),
+        ..Default::default()
+    };
+    let mut info = StepInfo::default();
+    let erec = edge_records(t)?;
+    let insts = super::assembly::instances(t, &geo)?;
+    let mut roots_seen: HashSet<u64> = HashSet::new();
+    let in_place = insts
+        .iter()
+        .all(|i| i.xf.is_identity(geo.extent) && roots_seen.insert(i.root));
+    if in_place {
+        // every part where the file draws it, once: the whole file in one
+        // pass, solids named after their products
+        let names: HashMap<u64, String> = insts.iter().map(|i| (i.root, i.name.clone())).collect();
+        add_scope(
+            &geo,
+            &Scope::everything(t),
+            &erec,
+            &names,
+            &mut model,
+            &mut info,
+        )?;
+        return Ok(StepModel { model, info });
+    }
+    // an assembly: each instance is built from its part's entities, placed
+    for inst in &insts {
+        let scope = Scope::reachable(t, &[inst.root], &erec)?;
+        let names = HashMap::from([(inst.root, inst.name.clone())]);
+        add_scope(
+            &geo.moved(inst.xf),
+            &scope,
+            &erec,
+            &names,
+            &mut model,
+            &mut info,
+        )?;
+    }
+    // solids of no product stay where the file draws them
+    let placed: HashSet<u64> = insts.iter().map(|i| i.root).collect();
+    let mut rest = Scope::everything(t).solids;
+    rest.retain(|s| !placed.contains(s));
+    if !rest.is_empty() {
+        let scope = Scope::reachable(t, &rest, &erec)?;
+        add_scope(&geo, &scope, &erec, &HashMap::new(), &mut model, &mut info)?;
+    }
+    Ok(StepModel { model, info })
+}
+
+/// Builds the entities of `scope` with `geo` (its motion applied) and
+/// appends them to `model` and `info`. `names`: volume names by solid id
+/// (`#id` otherwise).
+fn add_scope(
+    geo: &Geo,
+    scope: &Scope,
+    erec: &HashMap<u64, EdgeRec>,
+    names: &HashMap<u64, String>,
+    model: &mut Model,
+    info: &mut StepInfo,
+) -> Result<(), StepError> {
+    let t = geo.t;
+    let mut points: HashMap<u64, P3> = HashMap::new();
+    for &id in &scope.vertices {
+        let a = t.args(id, &["VERTEX_POINT"], 2)?;
+        points.insert(id, geo.point(t.r(id, &a[1], "vertex_geometry")?)?);
+    }
+
+    // degenerate edges: on a LINE, from a vertex to itself or to one within
+    // the tolerance (written at poles and collapsed boundaries): the
+    // vertices are one vertex and the edge is no model edge
+    let line_tol = (REL_TOL * geo.vertex_extent).max(geo.uncertainty);
+    let mut parent: HashMap<u64, u64> = HashMap::new();
+    fn find(parent: &HashMap<u64, u64>, mut v: u64) -> u64 {
+        while let Some(&p) = parent.get(&v) {
+            v = p;
+        }
+        v
+    }
+    let mut degenerate: HashSet<u64> = HashSet::new();
+    for &id in &scope.edges {
+        let r = &erec[&id];
+        if !is_line(t, r.geom, 0) {
+            continue;
+        }
+        if r.v1 == r.v2 || (points[&r.v1] - points[&r.v2]).norm() <= line_tol {
+            degenerate.insert(id);
+            let (a, b) = (find(&parent, r.v1), find(&parent, r.v2));
+            if a != b {
+                parent.insert(a.max(b), a.min(b));
+            }
+        }
+    }
+    // the scope's edges with merged vertices
+    let erec_own: HashMap<u64, EdgeRec>;
+    let erec = if parent.is_empty() {
+        erec
+    } else {
+        erec_own = scope
+            .edges
+            .iter()
+            .map(|&id| {
+                let r = &erec[&id];
+                (
+                    id,
+                    EdgeRec {
+                        v1: find(&parent, r.v1),
+                        v2: find(&parent, r.v2),
+                        geom: r.geom,
+                        same_sense: r.same_sense,
+                    },
+                )
+            })
+            .collect();
+        &erec_own
+    };
+
+    // vertices: one per merged class
+    let mut vmap: HashMap<u64, u32> = HashMap::new();
+    for &id in &scope.vertices {
+        if parent.contains_key(&id) {
+            continue;
+        }
+        vmap.insert(id, model.vertices.len() as u32);
+        info.vertex_ids.push(id);
+        model.vertices.push(Vertex {
+            point: points[&id],
+            name: Some(format!("#{id}")),
+        });
+    }
+    for &id in &scope.vertices {
+        let root = find(&parent, id);
+        if root != id {
+            vmap.insert(id, vmap[&root]);
+        }
+    }
+
+    // faces, raw, without their degenerate edges (a bound made of
+    // degenerate edges only is its vertex)
+    let mut raws = Vec::with_capacity(scope.faces.len());
+    for &id in &scope.faces {
+        let mut raw = read_face(t, id, erec)?;
+        if !degenerate.is_empty() {
+            let mut bounds = Vec::with_capacity(raw.bounds.len());
+            for b in std::mem::take(&mut raw.bounds) {
+                let kept: Vec<Use> = b
+                    .iter()
+                    .copied()
+                    .filter(|u| !degenerate.contains(&u.edge))
+                    .collect();
+                if kept.is_empty() {
+                    raw.vertex_loops.push(erec[&b[0].edge].v1);
+                } else {
+                    bounds.push(kept);
+                }
+            }
+            raw.bounds = bounds;
+        }
+        raws.push(raw);
     }
 
     // seams: edges used twice by one face
@@ -138,13 +381,17 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
 
     // model edges: every EDGE_CURVE but the seams used only as seams
     let mut emap: HashMap<u64, u32> = HashMap::new();
-    for &id in &edge_ids {
+    for &id in &scope.edges {
+        if degenerate.contains(&id) {
+            info.degenerate_edges.push(id);
+            continue;
+        }
         if any_use.contains(&id) && !non_seam_use.contains(&id) {
             info.seams.push(id);
             continue;
         }
         let r = &erec[&id];
-        let edge = build_edge(&geo, id, r, &vmap, &model)?;
+        let edge = build_edge(geo, id, r, &vmap, model)?;
         emap.insert(id, model.edges.len() as u32);
         info.edge_ids.push(id);
         model.edges.push(edge);
@@ -153,7 +400,8 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
     // faces
     let mut fmap: HashMap<u64, u32> = HashMap::new();
     for (f, seams) in raws.iter().zip(&seam_of_face) {
-        let face = build_face(&geo, f, seams, &erec, &emap, &vmap, &model)?;
+        let (face, gap) = build_face(geo, f, seams, erec, &emap, &vmap, model)?;
+        info.face_gap.push(gap);
         fmap.insert(f.id, model.faces.len() as u32);
         info.face_ids.push(f.id);
         info.face_same_sense.push(f.same_sense);
@@ -162,32 +410,14 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
 
     // solids and shells
     let mut shell_seen: HashSet<u64> = HashSet::new();
-    let mut solids = t.ids_of("MANIFOLD_SOLID_BREP");
-    solids.extend(t.ids_of("BREP_WITH_VOIDS"));
-    solids.sort_unstable();
-    solids.dedup();
-    for id in solids {
-        let e = t.get(id)?;
-        let a = t.args(id, &["MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"], 2)?;
-        let mut shells = vec![(t.r(id, &a[1], "outer")?, true)];
-        if e.is("BREP_WITH_VOIDS") {
-            let voids = match e.part("BREP_WITH_VOIDS") {
-                Some(p) if e.records.len() > 1 => p.first(),
-                _ => a.get(2),
-            };
-            if let Some(v) = voids {
-                for s in t.refs(id, v, "voids")? {
-                    shells.push((s, false));
-                }
-            }
-        }
+    for &id in &scope.solids {
         let vol = model.volumes.len() as u32;
         let mut faces = Vec::new();
-        for (s, outer) in shells {
+        for (s, outer) in solid_shells(t, id)? {
             // a void's ORIENTED_CLOSED_SHELL is normally .F.: its faces, as
             // read, point into the void; the role is what `outer` records
             let (sid, _orient) = resolve_shell(t, s)?;
-            let sf = shell_faces(t, sid, &fmap, &mut info)?;
+            let sf = shell_faces(t, sid, &fmap, info)?;
             shell_seen.insert(sid);
             faces.extend(sf.iter().cloned());
             info.shells.push(ShellInfo {
@@ -201,17 +431,14 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
         model.volumes.push(Volume {
             faces,
             geometry: None,
-            name: Some(format!("#{id}")),
+            name: Some(names.get(&id).cloned().unwrap_or_else(|| format!("#{id}"))),
         });
     }
-    let mut others = t.ids_of("CLOSED_SHELL");
-    others.extend(t.ids_of("OPEN_SHELL"));
-    others.sort_unstable();
-    for sid in others {
+    for &sid in &scope.shells {
         if shell_seen.contains(&sid) {
             continue;
         }
-        let sf = shell_faces(t, sid, &fmap, &mut info)?;
+        let sf = shell_faces(t, sid, &fmap, info)?;
         info.shells.push(ShellInfo {
             step_id: sid,
             closed: t.get(sid)?.is("CLOSED_SHELL"),
@@ -220,7 +447,30 @@ pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
             faces: sf,
         });
     }
-    Ok(StepModel { model, info })
+    Ok(())
+}
+
+/// Whether curve `id` is a LINE (possibly as the 3D curve of a
+/// SURFACE_CURVE / SEAM_CURVE or the basis of a TRIMMED_CURVE).
+fn is_line(t: &Table, id: u64, depth: usize) -> bool {
+    let Ok(e) = t.get(id) else {
+        return false;
+    };
+    if e.is("LINE") {
+        return true;
+    }
+    if depth > 8 {
+        return false;
+    }
+    for n in ["SURFACE_CURVE", "SEAM_CURVE", "TRIMMED_CURVE"] {
+        if let Some(p) = e.part(n) {
+            return p
+                .get(1)
+                .and_then(|x| t.r(id, x, "curve").ok())
+                .is_some_and(|c| is_line(t, c, depth + 1));
+        }
+    }
+    false
 }
 
 /// A shell reference, through ORIENTED_CLOSED_SHELL: (shell id, orientation).
@@ -368,7 +618,8 @@ fn read_face(t: &Table, id: u64, erec: &HashMap<u64, EdgeRec>) -> Result<FaceRaw
     })
 }
 
-/// Tolerance on distances, relative to the file's extent.
+/// Tolerance on distances, relative to the file's extent (raised to the
+/// file's `UNCERTAINTY_MEASURE_WITH_UNIT` where that is larger).
 const REL_TOL: f64 = 1e-6;
 
 /// An EDGE_CURVE as a model edge running along its curve's direction: from
@@ -393,7 +644,8 @@ fn build_edge(
     );
     let closed = va == vb;
     let bad = |g: bubblemesh_analytic::GeometryError| t.err(id, g.to_string());
-    let tol = REL_TOL * geo.extent;
+    // the file's own uncertainty where it is larger
+    let tol = (REL_TOL * geo.extent).max(geo.uncertainty);
     // angles of a conic: the second after the first, a full turn if closed
     let sweep = |ta: f64, tb: f64| {
         let mut tb = ta + (tb - ta).rem_euclid(TAU);
@@ -404,7 +656,8 @@ fn build_edge(
     };
     let (curve, t0, t1): (Arc<dyn Curve>, f64, f64) = match geo.curve(r.geom)? {
         CurveGeom::Line { p: _, d: _ } => {
-            if closed || (b - a).norm() <= tol {
+            // degenerate lines were taken out before: what is left is refused
+            if closed || (b - a).norm() <= 1e-12 * geo.extent {
                 return Err(t.err(id, "a closed edge on a LINE"));
             }
             (Arc::new(Line::new(a, b).map_err(bad)?), 0.0, 1.0)
@@ -502,7 +755,7 @@ fn build_face(
     emap: &HashMap<u64, u32>,
     vmap: &HashMap<u64, u32>,
     model: &Model,
-) -> Result<Face, StepError> {
+) -> Result<(Face, f64), StepError> {
     let t = geo.t;
     let ends = |u: &Use| {
         let r = &erec[&u.edge];
@@ -591,14 +844,20 @@ fn build_face(
     }
 
     let sg = geo.surface(f.surface)?;
-    crate::face_build::face_from_loops(
+    // boundary points off their surface: 1e-3 of the file, or of the parts
+    // (1e-2), or ten times the file's own uncertainty, whichever is largest
+    // (OpenCascade heals and meshes faces whose boundaries are that far off)
+    let far = (1e-3 * geo.extent)
+        .max(1e-2 * geo.vertex_extent)
+        .max(10.0 * geo.uncertainty);
+    crate::face_build::face_from_loops_within(
         sg.surface.clone(),
         sg.planar,
         f.same_sense,
         loops,
         embedded,
         model,
-        geo.extent,
+        far,
         format!("#{}", f.id),
     )
     .map_err(|m| t.err(f.id, format!("{m} (surface #{})", f.surface)))

@@ -28,7 +28,11 @@
 //!   the non-seam edge uses; vertices of `VERTEX_LOOP`s and of seams that are
 //!   on no loop (a sphere's pole, a cone's apex) are embedded vertices;
 //! - one volume per `MANIFOLD_SOLID_BREP` / `BREP_WITH_VOIDS` with the faces
-//!   of its outer and void shells.
+//!   of its outer and void shells, named after its product;
+//! - in an assembly (module `assembly`), all of that once per placed
+//!   instance of a part, moved by the instance's placement: a part used
+//!   twice is two volumes with their own faces, edges and vertices;
+//! - degenerate edges (a LINE of zero length) as their one vertex.
 //!
 //! Any entity that cannot be converted makes the read fail with a
 //! [`StepError`] naming it. Limits guard against hostile input: degree ≤
@@ -37,6 +41,7 @@
 //!
 //! Lengths are in the file's length unit; angles are converted to radians.
 
+mod assembly;
 mod build;
 mod geometry;
 pub mod part21;
@@ -46,6 +51,7 @@ use std::path::Path;
 
 use bubblemesh_core::model::Model;
 
+pub use assembly::{volume_bbox, MAX_INSTANCES};
 pub use build::MAX_CONTROL_POINTS;
 
 /// Why a STEP file could not be read.
@@ -95,6 +101,14 @@ pub struct StepInfo {
     pub shells: Vec<ShellInfo>,
     /// `EDGE_CURVE`s absorbed as seams of periodic faces (not model edges).
     pub seams: Vec<u64>,
+    /// For each model face, the largest distance of its boundary (edge
+    /// samples, embedded vertices) from its surface, in the file's length
+    /// unit: boundaries off their surface are accepted up to a tolerance
+    /// and projected onto it.
+    pub face_gap: Vec<f64>,
+    /// Degenerate `EDGE_CURVE`s (zero-length lines): their vertices are one
+    /// model vertex and they are not model edges.
+    pub degenerate_edges: Vec<u64>,
 }
 
 /// One shell of the file.
