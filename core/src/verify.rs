@@ -16,7 +16,8 @@
 //!   on no model edge belongs to one face only; where an edge joins exactly
 //!   two triangles, they traverse it in opposite directions (the surface is
 //!   consistently oriented, as meshcheck demands);
-//! - **nodes**: no two nodes closer than `DUPLICATE` × diag;
+//! - **nodes**: no two nodes of one connected part of the mesh closer than
+//!   `DUPLICATE` × diag (separate solids of an assembly may touch);
 //! - **volumes**: every tetrahedron positive (exact `orient3d`); every
 //!   triangle of the volume's faces is a face of exactly one of its
 //!   tetrahedra, every other tetrahedron face is shared by exactly two, so
@@ -124,8 +125,8 @@ fn key2(a: u32, b: u32) -> (u32, u32) {
     }
 }
 
-/// No two nodes of the highest-dimensional elements closer than
-/// `DUPLICATE` × diag: sorted by x, each node is
+/// No two nodes of the highest-dimensional elements of one connected part
+/// closer than `DUPLICATE` × diag: sorted by x, each node is
 /// compared with the following ones while their x is within the tolerance.
 fn check_duplicates(mesh: &Mesh, diag: f64) -> Result<(), CheckError> {
     let tol = DUPLICATE * diag;
@@ -146,6 +147,27 @@ fn check_duplicates(mesh: &Mesh, diag: f64) -> Result<(), CheckError> {
     } else {
         used.iter_mut().for_each(|u| *u = true);
     }
+    // connected parts of the mesh (union-find over the element edges):
+    // touching solids of an assembly are separate parts, and their nodes
+    // may coincide where they touch
+    let mut parent: Vec<u32> = (0..mesh.nodes.len() as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    let mut join = |nodes: &[u32]| {
+        let r0 = root(&mut parent, nodes[0]);
+        for &n in &nodes[1..] {
+            let r = root(&mut parent, n);
+            parent[r as usize] = r0;
+        }
+    };
+    mesh.tetrahedra.iter().for_each(|t| join(&t.nodes));
+    mesh.triangles.iter().for_each(|t| join(&t.nodes));
+    mesh.lines.iter().for_each(|t| join(&t.nodes));
     let mut order: Vec<u32> = (0..mesh.nodes.len() as u32)
         .filter(|&i| used[i as usize])
         .collect();
@@ -157,7 +179,7 @@ fn check_duplicates(mesh: &Mesh, diag: f64) -> Result<(), CheckError> {
             if q.x - p.x > tol {
                 break;
             }
-            if (q - p).norm() <= tol {
+            if (q - p).norm() <= tol && root(&mut parent, i) == root(&mut parent, j) {
                 let (ei, ej) = (mesh.nodes[i as usize].entity, mesh.nodes[j as usize].entity);
                 return Err(CheckError {
                     also: vec![],
