@@ -109,11 +109,12 @@ static const char *STEP_HEAD =
     "FILE_NAME('t','2000-01-01T00:00:00',('A'),('O'),'p','s','U');\n"
     "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\n"
     "ENDSEC;\nDATA;\n";
-/* a face on an offset surface, which the reader does not convert */
+/* a face on an offset of an offset surface, which the reader does not convert */
 static const char *STEP_OFFSET =
     "#1 = ADVANCED_FACE('',(#6),#2,.T.);\n#6 = FACE_BOUND('',#7,.T.);\n"
     "#7 = VERTEX_LOOP('',#8);\n#8 = VERTEX_POINT('',#5);\n"
-    "#2 = OFFSET_SURFACE('',#3,1.,.F.);\n#3 = PLANE('',#4);\n"
+    "#2 = OFFSET_SURFACE('',#3,1.,.F.);\n"
+    "#3 = OFFSET_SURFACE('',#9,1.,.F.);\n#9 = PLANE('',#4);\n"
     "#4 = AXIS2_PLACEMENT_3D('',#5,$,$);\n"
     "#5 = CARTESIAN_POINT('',(0.,0.,0.));\nENDSEC;\nEND-ISO-10303-21;\n";
 
