@@ -300,7 +300,7 @@ fn single_part_volume_is_named_after_its_product() {
 }
 
 /// The 18 solids of OpenCascade's as1 assembly (pythonocc-demos'
-/// as1-oc-214.stp, in /work/shared/realstep or $BUBBLEMESH_REALSTEP; the
+/// as1-oc-214.stp, in ../shared/realstep beside the repository or $BUBBLEMESH_REALSTEP; the
 /// test is skipped without it) are where Gmsh puts them. Expected boxes:
 /// Gmsh 4.15.2, `gmsh.option.setNumber("Geometry.OCCBoundsUseStl", 1)`,
 /// `gmsh.model.occ.importShapes(file)`, then `gmsh.model.getBoundingBox(3,
@@ -309,7 +309,7 @@ fn single_part_volume_is_named_after_its_product() {
 /// which is the file's.
 #[test]
 fn as1_assembly_parts_are_where_gmsh_puts_them() {
-    let dir = std::env::var("BUBBLEMESH_REALSTEP").unwrap_or("/work/shared/realstep".into());
+    let dir = realstep_dir();
     let path = std::path::Path::new(&dir).join("pyocc_as1-oc-214.stp");
     if !path.exists() {
         eprintln!("skipped: {} not found", path.display());
@@ -417,13 +417,13 @@ fn file_uncertainty_widens_the_accepted_gap() {
 }
 
 /// Files of other CAD systems that were refused while reading (in
-/// /work/shared/realstep or $BUBBLEMESH_REALSTEP; skipped without them):
+/// ../shared/realstep or $BUBBLEMESH_REALSTEP; skipped without them):
 /// a degenerate LINE edge (NX's MVE, an OpenCascade repatch), a boundary
 /// point Newton's inversion could not map onto its B-spline surface
 /// (pythonocc's 11752).
 #[test]
 fn realstep_files_once_refused_read() {
-    let dir = std::env::var("BUBBLEMESH_REALSTEP").unwrap_or("/work/shared/realstep".into());
+    let dir = realstep_dir();
     for f in [
         "as_0082_MVE_100-3_AP203.stp",
         "as_repatch-hpdc.stp",
@@ -487,7 +487,7 @@ fn mapped_items_place_a_representation_twice() {
 /// (`gmsh`, the file's volumes in order, in Gmsh's millimetres: `scale`
 /// converts them to the file's unit), to 0.01 of the file's unit.
 fn assert_gmsh_boxes(f: &str, gmsh: &[[f64; 6]], scale: f64) {
-    let dir = std::env::var("BUBBLEMESH_REALSTEP").unwrap_or("/work/shared/realstep".into());
+    let dir = realstep_dir();
     let path = std::path::Path::new(&dir).join(f);
     if !path.exists() {
         eprintln!("skipped: {} not found", path.display());
@@ -565,4 +565,16 @@ fn other_assemblies_are_placed_where_gmsh_puts_them() {
             [889.000, 825.500, -254.000, 965.200, 1206.500, 254.000],
     ];
     assert_gmsh_boxes("pyocc_as1_pe_203.stp", &pe203, 1.0 / 25.4);
+}
+
+/// `../shared/realstep` beside the repository (as the developers and CI have
+/// it), or `$BUBBLEMESH_REALSTEP`. Under CI the files must be there.
+fn realstep_dir() -> String {
+    let dir = std::env::var("BUBBLEMESH_REALSTEP").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/realstep").to_string()
+    });
+    if std::env::var_os("CI").is_some() && !std::path::Path::new(&dir).is_dir() {
+        panic!("CI is set but the realstep files are not at {dir}");
+    }
+    dir
 }
