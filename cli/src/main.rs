@@ -294,17 +294,46 @@ fn plugin_specs(matches: &clap::ArgMatches, a: &MeshArgs) -> Result<Vec<PluginSp
     Ok(specs)
 }
 
-/// Reads the input model, choosing the reader by extension.
-fn read_model(path: &Path) -> Result<Model, String> {
+/// What the STEP reader found, for the report: per face whose boundary
+/// was off its surface, the largest gap (model units) it closed by
+/// projection; the degenerate edges read as vertices.
+fn step_summary(info: &bubblemesh_truck::StepInfo) -> serde_json::Value {
+    let gaps: Vec<serde_json::Value> = info
+        .face_gap
+        .iter()
+        .enumerate()
+        .filter(|(_, &g)| g > 0.0)
+        .map(|(f, &g)| {
+            serde_json::json!({
+                "face": f,
+                "step_id": info.face_ids.get(f),
+                "largest_boundary_gap": g,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "face_gaps": gaps,
+        "degenerate_edges": info.degenerate_edges,
+    })
+}
+
+/// Reads the input model, choosing the reader by extension; for STEP files
+/// also what the reader found ([`step_summary`]).
+fn read_model(path: &Path) -> Result<(Model, Option<serde_json::Value>), String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     match ext.as_str() {
-        "toml" => bubblemesh_analytic::read_domain(path).map_err(|e| e.to_string()),
+        "toml" => bubblemesh_analytic::read_domain(path)
+            .map(|m| (m, None))
+            .map_err(|e| e.to_string()),
         "step" | "stp" => bubblemesh_truck::read_step(path)
-            .map(|s| s.model)
+            .map(|s| {
+                let summary = step_summary(&s.info);
+                (s.model, Some(summary))
+            })
             .map_err(|e| e.to_string()),
         _ => Err(format!(
             "{}: unknown input type '.{ext}'; expected a domain file (.toml) or STEP (.step, .stp)",
@@ -459,7 +488,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
     outputs.extend(a.frames.as_deref().map(|p| dir_output("--frames", p)));
     outputs.extend(a.animate.as_deref().map(|p| file_output("--animate", p)));
     let mut out = prepare_outputs(&inputs, &outputs)?;
-    let model = read_model(&a.input)?;
+    let (model, step_info) = read_model(&a.input)?;
     if let Some(d) = a.dim {
         if d == 0 || d > 3 {
             return Err(format!("--dim {d}: the dimension must be 1, 2 or 3"));
@@ -596,6 +625,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             "dim": report.dim,
             "fast": a.fast,
             "engine": report,
+            "step": step_info,
             "quality": q,
             "time_mesh_s": t_mesh,
             "time_write_s": write_s,
