@@ -312,6 +312,10 @@ fn step_summary(info: &bubblemesh_truck::StepInfo) -> serde_json::Value {
         })
         .collect();
     serde_json::json!({
+        "length_unit": info.length_unit.as_ref().map(|u| serde_json::json!({
+            "name": u.name,
+            "metres": u.metres,
+        })),
         "face_gaps": gaps,
         "degenerate_edges": info.degenerate_edges,
     })
@@ -615,6 +619,17 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             a.output.display(),
             write_s
         ));
+        if let Some(u) = step_info
+            .as_ref()
+            .and_then(|i| i.get("length_unit"))
+            .filter(|u| !u.is_null())
+        {
+            said.push(format!(
+                "length unit of the file: {} ({} m); coordinates and --size are in it",
+                u["name"].as_str().unwrap_or("?"),
+                u["metres"]
+            ));
+        }
         said.push(q.table());
     }
     if let Some(path) = &a.report {

@@ -578,3 +578,43 @@ fn realstep_dir() -> String {
     }
     dir
 }
+
+/// The length unit the contexts assign is read: inch files (Pro/E's
+/// as1_pe_203, the joystick) are in inches, the others in millimetres or
+/// metres, and every file of ../shared/realstep names one.
+#[test]
+fn length_units_of_realstep_files_are_read() {
+    let dir = realstep_dir();
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        eprintln!("skipped: {dir} not found");
+        return;
+    };
+    let mut seen = Vec::new();
+    for e in entries.flatten() {
+        let path = e.path();
+        let ext = path.extension().and_then(|x| x.to_str()).unwrap_or("");
+        if !matches!(ext.to_ascii_lowercase().as_str(), "stp" | "step") {
+            continue;
+        }
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let m = match bubblemesh_truck::read_step(&path) {
+            Ok(m) => m,
+            Err(err) => panic!("{name}: {err}"),
+        };
+        let u = m
+            .info
+            .length_unit
+            .unwrap_or_else(|| panic!("{name}: no length unit read"));
+        seen.push(format!("{name}: {} {}", u.name, u.metres));
+        if name == "pyocc_as1_pe_203.stp" {
+            assert_eq!(u.name, "inch");
+            assert!((u.metres - 0.0254).abs() < 1e-12);
+        }
+        if name == "pyocc_as1-oc-214.stp" {
+            assert_eq!(u.name, "millimetre");
+            assert!((u.metres - 1e-3).abs() < 1e-15);
+        }
+    }
+    eprintln!("{}", seen.join("\n"));
+    assert!(seen.len() >= 40, "{} files", seen.len());
+}

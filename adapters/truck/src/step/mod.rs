@@ -46,6 +46,7 @@ mod build;
 mod geometry;
 pub mod part21;
 mod table;
+mod units;
 
 use std::path::Path;
 
@@ -53,6 +54,7 @@ use bubblemesh_core::model::Model;
 
 pub use assembly::{volume_bbox, MAX_INSTANCES};
 pub use build::MAX_CONTROL_POINTS;
+pub use units::LengthUnit;
 
 /// Why a STEP file could not be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -109,6 +111,8 @@ pub struct StepInfo {
     /// Degenerate `EDGE_CURVE`s (zero-length lines): their vertices are one
     /// model vertex and they are not model edges.
     pub degenerate_edges: Vec<u64>,
+    /// The length unit the file's contexts assign (coordinates are in it).
+    pub length_unit: Option<LengthUnit>,
 }
 
 /// One shell of the file.
@@ -155,7 +159,10 @@ pub fn parse_step(text: &str, source_name: &str) -> Result<StepModel, StepError>
             return Err(StepError::file(source_name, "the DATA section is empty"));
         }
         let table = table::Table::new(source_name, instances)?;
-        build::build(&table)
+        build::build(&table).map(|mut m| {
+            m.info.length_unit = units::length_unit(&table);
+            m
+        })
     });
     match result {
         Ok(r) => r,
