@@ -275,7 +275,9 @@ pub fn mesh_model(
 ) -> Result<(Mesh, Report), MeshError> {
     let t_start = Instant::now();
     let mut refinement = refine::Refinement::new(model);
+    let mut rounds = 0;
     loop {
+        rounds += 1;
         let refined = refine::Refined {
             inner: spacing,
             refinement: &refinement,
@@ -290,6 +292,7 @@ pub fn mesh_model(
                 let reason = failed.error.to_string();
                 if failed.faces.is_empty() && failed.edges.is_empty()
                     || opts.fast
+                    || rounds > refine::MAX_ROUNDS
                     || !refinement.bump(model, &failed.faces, &failed.edges, &reason)
                 {
                     return Err(failed.error);

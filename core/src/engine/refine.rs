@@ -15,6 +15,10 @@
 use crate::model::{EntityRef, Model};
 use crate::spacing::{Spacing, SpacingQuery};
 
+/// The most refinement rounds of one model: each round meshes the whole
+/// model again, so this bounds the time to a few times one attempt's.
+pub const MAX_ROUNDS: usize = 6;
+
 /// The finest level: spacing d/16 and at least 5 segments per edge.
 pub const MAX_LEVEL: u8 = 4;
 
