@@ -168,6 +168,16 @@ fn line_of(s: &str, at: usize) -> usize {
         .count()
 }
 
+/// At most the first `n` bytes of `s`, cut back to a character boundary
+/// (a byte index inside a multi-byte character would panic).
+fn head(s: &str, n: usize) -> &str {
+    let mut end = s.len().min(n);
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    &s[..end]
+}
+
 /// The next tag at or after `from`, skipping comments, processing
 /// instructions and declarations; `None` at the end of the text.
 fn next_tag(s: &str, mut from: usize) -> Result<Option<Tag<'_>>, ParseError> {
@@ -181,7 +191,7 @@ fn next_tag(s: &str, mut from: usize) -> Result<Option<Tag<'_>>, ParseError> {
             rest.find(end).map(|i| lt + i + end.len()).ok_or_else(|| {
                 ParseError::at(
                     line_of(s, lt),
-                    format!("unterminated '{}'", clip(&rest[..rest.len().min(9)])),
+                    format!("unterminated '{}'", clip(head(rest, 9))),
                 )
             })
         };
