@@ -58,6 +58,19 @@ pub struct CheckError {
     pub at: P3,
 }
 
+/// The face checks of [`verify`] without orientation, for face meshes
+/// not yet oriented (before the volume stage walks their shells): every
+/// face covers its loops exactly, no mesh edge joins more triangles than
+/// the model has faces there.
+pub fn verify_face_topology(model: &Model, mesh: &Mesh) -> Result<(), CheckError> {
+    match mesh.bbox() {
+        Some((lo, hi)) if !mesh.triangles.is_empty() => {
+            check_faces(model, mesh, (hi - lo).norm(), false)
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Checks `mesh`, meshed from `model` up to dimension `dim`, for the
 /// properties listed in the module docs; also that every face has triangles
 /// when `dim ≥ 2` and every volume tetrahedra when `dim ≥ 3`.
@@ -100,7 +113,7 @@ pub fn verify(model: &Model, mesh: &Mesh, dim: u8) -> Result<(), CheckError> {
         }
     }
     if !mesh.triangles.is_empty() {
-        check_faces(model, mesh, diag)?;
+        check_faces(model, mesh, diag, true)?;
     }
     if !mesh.tetrahedra.is_empty() {
         check_volumes(model, mesh)?;
@@ -203,7 +216,7 @@ struct SegUse {
     tri: u32,
 }
 
-fn check_faces(model: &Model, mesh: &Mesh, diag: f64) -> Result<(), CheckError> {
+fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Result<(), CheckError> {
     // segments of model edges -> the edge
     let mut edge_of: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.lines.len());
     for l in &mesh.lines {
@@ -281,6 +294,9 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64) -> Result<(), CheckError> 
     // first the counts (gaps, non-manifold edges, overlapping faces), then
     // orientation and folds: the message names the most basic defect
     for orientation_pass in [false, true] {
+        if orientation_pass && !orientation {
+            break;
+        }
         for (&(p, q), us) in &segs {
             let face0 = EntityRef::new(2, us[0].face);
             let err = |what: String, also: Vec<EntityRef>, refinable: bool| CheckError {

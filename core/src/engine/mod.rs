@@ -514,6 +514,12 @@ fn mesh_once(
     }
     // closed shells: every volume's face triangles outward (a face shared
     // by two volumes keeps the first volume's orientation)
+    if dim >= 3 {
+        // a face mesh the shells cannot be walked through (two faces joined
+        // across a chord, an edge in four triangles) is named, so that its
+        // faces can be refined, before the volume stage refuses the shell
+        crate::verify::verify_face_topology(model, &mesh).map_err(MeshError::Check)?;
+    }
     if dim >= 2 {
         orient_volume_faces(model, &mut mesh, dim >= 3)?;
     }
