@@ -195,6 +195,8 @@ pub struct Report {
     /// Faces meshed with a spacing finer than requested because the
     /// requested one could not give them a valid mesh ([`refine`]).
     pub refined: Vec<refine::RefinedFace>,
+    /// How many times the model was meshed again finer (0: once, as asked).
+    pub refinement_rounds: usize,
 }
 
 /// A meshing failure. Messages name the entity and the reason.
@@ -285,6 +287,7 @@ pub fn mesh_model(
         match mesh_once(model, &refined, spacing, opts, &refinement) {
             Ok((mesh, mut report)) => {
                 report.refined = refinement.faces(model);
+                report.refinement_rounds = rounds - 1;
                 report.timings.total_s = t_start.elapsed().as_secs_f64();
                 return Ok((mesh, report));
             }

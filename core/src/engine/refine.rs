@@ -16,8 +16,10 @@ use crate::model::{EntityRef, Model};
 use crate::spacing::{Spacing, SpacingQuery};
 
 /// The most refinement rounds of one model: each round meshes the whole
-/// model again, so this bounds the time to a few times one attempt's.
-pub const MAX_ROUNDS: usize = 6;
+/// model again, so this bounds the time. Faces often fail one after
+/// another as their neighbours' edges are refined: `as_0049` needs 9 rounds
+/// and `as_0085` 7 at diag/25 (with 6, both were refused).
+pub const MAX_ROUNDS: usize = 16;
 
 /// The finest level: spacing d/16 and at least 5 segments per edge.
 pub const MAX_LEVEL: u8 = 4;
