@@ -415,14 +415,22 @@ fn mesh_once(
             let e = EntityRef::new(1, ei as u32);
             let mut ids = mesh_edge(model, ei, spacing, opts.fast, &mut mesh, &mut node_d)
                 .map_err(|x| x.within(model.describe(e)))?;
-            let min_segments = refinement.min_segments(ei);
-            if ids.len() - 1 < min_segments {
-                // a refined edge shorter than its spacing: equal parameter steps
+            // at least the refinement's segments (a refined edge shorter
+            // than its spacing), and two where another one-segment edge
+            // already joins the same vertices: equal parameter steps
+            let mut want = refinement.min_segments(ei);
+            if ids.len() == 2
+                && want < 2
+                && !single_segment.insert((edge.start.min(edge.end), edge.start.max(edge.end)))
+            {
+                want = want.max(2);
+            }
+            if ids.len() - 1 < want {
                 mesh.nodes.truncate(mesh.nodes.len() + 2 - ids.len());
                 node_d.truncate(node_d.len() + 2 - ids.len());
                 ids.truncate(1);
-                for k in 1..min_segments {
-                    let t = edge.t0 + (edge.t1 - edge.t0) * k as f64 / min_segments as f64;
+                for k in 1..want {
+                    let t = edge.t0 + (edge.t1 - edge.t0) * k as f64 / want as f64;
                     let p = edge.curve.point(t);
                     let d = spacing.spacing(&SpacingQuery {
                         point: p,
@@ -438,25 +446,6 @@ fn mesh_once(
                     });
                 }
                 ids.push(edge.end);
-            }
-            if ids.len() == 2 {
-                let pair = (edge.start.min(edge.end), edge.start.max(edge.end));
-                if !single_segment.insert(pair) {
-                    let t = 0.5 * (edge.t0 + edge.t1);
-                    let p = edge.curve.point(t);
-                    let d = spacing.spacing(&SpacingQuery {
-                        point: p,
-                        entity: e,
-                        params: [t, 0.0],
-                    });
-                    node_d.push(check_spacing(d, p, e).map_err(|x| x.within(model.describe(e)))?);
-                    ids.insert(1, mesh.nodes.len() as u32);
-                    mesh.nodes.push(Node {
-                        pos: p,
-                        entity: e,
-                        params: [t, 0.0],
-                    });
-                }
             }
             for w in ids.windows(2) {
                 mesh.lines.push(Element {
