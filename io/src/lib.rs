@@ -252,13 +252,7 @@ pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoErro
         Format::Vtu => vtu::parse_with_node_data,
         _ => return read_as(path, format).map(|m| (m, Vec::new())),
     };
-    let data = fs::read(path).map_err(|source| IoError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    if data.iter().all(|b| b.is_ascii_whitespace()) {
-        return Err(ParseError::new("the file is empty").with_path(path));
-    }
+    let data = read_bytes(path)?;
     parse(&data).map_err(|e| e.with_path(path))
 }
 
@@ -276,6 +270,13 @@ pub fn read_with_notes(path: &Path) -> Result<(Mesh, Vec<String>), IoError> {
         // STL holds triangles only; OBJ polygons are triangulated
         Format::Stl | Format::Obj => return read_as(path, format).map(|m| (m, Vec::new())),
     };
+    let data = read_bytes(path)?;
+    parse(&data).map_err(|e| e.with_path(path))
+}
+
+/// The bytes of the mesh file at `path`; an empty (or all-blank) file is
+/// an error.
+fn read_bytes(path: &Path) -> Result<Vec<u8>, IoError> {
     let data = fs::read(path).map_err(|source| IoError::Io {
         path: path.to_path_buf(),
         source,
@@ -283,18 +284,12 @@ pub fn read_with_notes(path: &Path) -> Result<(Mesh, Vec<String>), IoError> {
     if data.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(ParseError::new("the file is empty").with_path(path));
     }
-    parse(&data).map_err(|e| e.with_path(path))
+    Ok(data)
 }
 
 /// Reads the mesh at `path` in `format`.
 pub fn read_as(path: &Path, format: Format) -> Result<Mesh, IoError> {
-    let data = fs::read(path).map_err(|source| IoError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    if data.iter().all(|b| b.is_ascii_whitespace()) {
-        return Err(ParseError::new("the file is empty").with_path(path));
-    }
+    let data = read_bytes(path)?;
     let parsed = match format {
         Format::Msh => msh::parse(&data),
         Format::Vtu => vtu::parse(&data),
