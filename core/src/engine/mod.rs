@@ -296,7 +296,13 @@ pub fn mesh_model(
                 if failed.faces.is_empty() && failed.edges.is_empty()
                     || opts.fast
                     || rounds > refine::MAX_ROUNDS
-                    || !refinement.bump(model, &failed.faces, &failed.edges, &reason)
+                    || !refinement.bump(
+                        model,
+                        &failed.faces,
+                        &failed.reasons,
+                        &failed.edges,
+                        &reason,
+                    )
                 {
                     return Err(failed.error);
                 }
@@ -310,6 +316,8 @@ pub fn mesh_model(
 struct Failed {
     error: MeshError,
     faces: Vec<u32>,
+    /// Why each of `faces` failed, where known (else the error's text).
+    reasons: Vec<String>,
     edges: Vec<u32>,
 }
 
@@ -339,6 +347,7 @@ impl From<MeshError> for Failed {
         Failed {
             error,
             faces,
+            reasons: vec![],
             edges,
         }
     }
@@ -496,10 +505,12 @@ fn mesh_once(
         }
         if !failed.is_empty() {
             let faces = failed.iter().map(|f| f.0).collect();
+            let reasons = failed.iter().map(|f| f.1.to_string()).collect();
             let error = failed.swap_remove(0).1;
             return Err(Failed {
                 error,
                 faces,
+                reasons,
                 edges: vec![],
             });
         }

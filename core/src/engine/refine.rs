@@ -61,9 +61,18 @@ impl Refinement {
     /// Refines `faces` and `edges` one level further (the faces' boundary
     /// edges with them). Returns `false` when none of them can be refined
     /// further.
-    pub fn bump(&mut self, model: &Model, faces: &[u32], edges: &[u32], reason: &str) -> bool {
+    /// `reasons[k]` is why `faces[k]` failed; faces beyond it take `reason`.
+    pub fn bump(
+        &mut self,
+        model: &Model,
+        faces: &[u32],
+        reasons: &[String],
+        edges: &[u32],
+        reason: &str,
+    ) -> bool {
         let mut any = false;
-        for &f in faces {
+        for (k, &f) in faces.iter().enumerate() {
+            let reason = reasons.get(k).map_or(reason, |r| r.as_str());
             let Some(l) = self.face.get_mut(f as usize) else {
                 continue;
             };
