@@ -15,7 +15,7 @@ CAD volume. Both meshers run single-threaded under `prlimit --as`
 
 Sizes: each part's manifest `mesh_size`. b3d_bottle's walls are one unit
 thick at size 1: no free bubble fits inside them (see
-core/src/engine/sliver.rs, `steiner_points`).
+core/src/volume/tet/sliver.rs, `steiner_points`).
 """
 import argparse, json, os, subprocess, sys
 

@@ -14,26 +14,31 @@
 //! - [`geom`]: what geometry must answer (curves, surfaces, volumes; §5.1.4);
 //! - [`model`]: the B-rep topology with stable ids;
 //! - [`spacing`]: the node-spacing interface d(x) (§3.2.1, §4.6);
-//! - [`engine`]: stage 1 placement (§4.1), forces (§4.2), dynamics (§4.3–4.4),
-//!   constraints (§4.5), population control (§4.7);
-//! - [`connect`]: constrained Delaunay connection of bubble centres;
-//!   [`connect3d`]: the boundary-conforming Delaunay tetrahedralization of a
-//!   volume's bubbles;
+//! - [`bubbles`]: the dimension-independent physics: forces (§4.2),
+//!   dynamics (§4.3–4.4), constraints (§4.5), population control (§4.7);
+//! - [`edge`], [`face`], [`volume`]: stage 1 placement (§4.1), packing and
+//!   connection of each dimension; [`volume::tet`]: the tetrahedral passes;
+//! - [`engine`]: [`mesh_model`], meshing in the order of dimensions;
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality;
 //!   [`verify`]: the last check a mesh passes before it may be written.
 
-pub mod connect;
-pub mod connect3d;
+pub mod bubbles;
 pub mod curvature;
+pub mod edge;
 pub mod engine;
+pub mod error;
+pub mod face;
 pub mod geom;
+pub(crate) mod incidence;
 pub mod mesh;
 pub mod model;
 pub mod quality;
 pub mod spacing;
 pub mod verify;
+pub mod volume;
 
-pub use engine::{mesh_model, MeshError, Options, Report};
+pub use engine::{mesh_model, Options, Report};
+pub use error::MeshError;
 pub use geom::{Curve, Plane, Surface, SurfaceDerivs, P3, V3};
 pub use mesh::Mesh;
 pub use model::{EntityRef, Model};

@@ -28,10 +28,10 @@
 
 use std::collections::HashMap;
 
-use crate::connect3d::{c3, FACE};
 use crate::geom::P3;
 use crate::mesh::Mesh;
 use crate::model::{EntityRef, Model};
+use crate::volume::connect::{c3, FACE};
 
 /// Triangles with |cross product| ≤ this × diag² count as zero-area
 /// (meshcheck's threshold).

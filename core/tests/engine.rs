@@ -5,10 +5,11 @@ mod common;
 
 use std::collections::{HashMap, HashSet};
 
-use bubblemesh_core::engine::constraint::{Carrier, OnFace};
-use bubblemesh_core::engine::region::Region;
-use bubblemesh_core::engine::system::{RelaxSettings, System};
-use bubblemesh_core::engine::{population, Options};
+use bubblemesh_core::bubbles::constraint::{Carrier, OnFace};
+use bubblemesh_core::bubbles::population;
+use bubblemesh_core::bubbles::system::{RelaxSettings, System};
+use bubblemesh_core::engine::Options;
+use bubblemesh_core::face::region::Region;
 use bubblemesh_core::geom::{Plane, P3, V3};
 use bubblemesh_core::spacing::{Constant, Expr};
 use bubblemesh_core::{mesh_model, EntityRef, Mesh};
@@ -398,8 +399,8 @@ fn face_bubbles_stay_inside_the_region() {
 /// without holes and without defects.
 #[test]
 fn growth_on_a_plane_is_one_hexagonal_crystal() {
-    use bubblemesh_core::engine::growth;
-    use bubblemesh_core::engine::placement::Seed;
+    use bubblemesh_core::face::growth;
+    use bubblemesh_core::face::placement::Seed;
     let d = 0.05;
     let plane = Plane::xy();
     let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];

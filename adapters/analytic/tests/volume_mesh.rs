@@ -7,10 +7,10 @@
 use std::collections::HashMap;
 
 use bubblemesh_analytic::parse_domain;
-use bubblemesh_core::engine::sliver::radius_ratio;
 use bubblemesh_core::engine::VolumeLattice;
 use bubblemesh_core::quality::analyse;
 use bubblemesh_core::spacing::{Constant, Expr};
+use bubblemesh_core::volume::tet::sliver::radius_ratio;
 use bubblemesh_core::{mesh_model, Mesh, Options, Spacing};
 
 const CUBE: &str = r#"
@@ -206,7 +206,7 @@ fn radius_ratios(m: &Mesh) -> Vec<f64> {
 /// path on the same cube, which stays available and valid (at d = 0.05:
 /// 0.925 against 0.913; at d = 0.07 and coarser, 2 % or more of BCC's
 /// tetrahedra next to the boundary are poor and the engine falls back to
-/// FCC, see engine::volume::BCC_MAX_BAD).
+/// FCC, see volume::BCC_MAX_BAD).
 #[test]
 fn uniform_cube_is_bcc_inside_and_beats_the_fcc_path() {
     let s = Constant(0.05);

@@ -317,7 +317,7 @@ fn corner_spheres_of_a_filleted_shell_close() {
 /// split some prisms cyclically (Schönhardt's polyhedron) and glued them
 /// with tetrahedra of volume ~1e-17·L³: 77 of them were written and the run
 /// exited 0. Now every such sliver gets Steiner points off its plane
-/// (engine::sliver::steiner_points). The volume must mesh with no flat
+/// (volume::tet::sliver::steiner_points). The volume must mesh with no flat
 /// tetrahedron, fill the closed boundary exactly and keep the CAD volume.
 #[test]
 fn thin_walled_bottle_meshes_without_flat_tetrahedra() {

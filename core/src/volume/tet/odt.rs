@@ -16,7 +16,7 @@
 
 use crate::geom::P3;
 
-use super::volume::InVolume;
+use crate::volume::InVolume;
 
 /// ODT iterations.
 pub const ITERATIONS: usize = 20;

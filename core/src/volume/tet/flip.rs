@@ -5,7 +5,7 @@
 //! algorithms for the topological improvement of tetrahedral meshes").
 //!
 //! Two goals: [`raise_worst`] for the sliver pass (a flip must raise the
-//! worst [`objective`](super::sliver::objective) of the tetrahedra it
+//! worst [`objective`](crate::volume::tet::sliver::objective) of the tetrahedra it
 //! replaces) and [`raise_mean`] for the polish (a flip must raise the
 //! mesh's mean radius ratio without a new tetrahedron below
 //! [`TARGET_Q`]). Invariants: every new tetrahedron is positively oriented
@@ -14,10 +14,10 @@
 
 use crate::geom::{P3, V3};
 
-use super::sliver::{objective_of as tet_q, radius_ratio_of, FACE3, TARGET_Q};
+use crate::volume::tet::sliver::{objective_of as tet_q, radius_ratio_of, FACE3, TARGET_Q};
 
 /// A tetrahedral mesh being improved: tets with a dead flag and their
-/// [`objective`](super::sliver::objective) (`qv`, kept current: nodes
+/// [`objective`](crate::volume::tet::sliver::objective) (`qv`, kept current: nodes
 /// never move here), and per node the tets around it: the initial ones in
 /// a compressed table (`start`, `csr`), those added by flips in `extra`;
 /// dead ones are skipped when read.
@@ -37,7 +37,7 @@ struct TetMesh<'a> {
 impl<'a> TetMesh<'a> {
     /// `qv[i]` must be the objective of `tets[i]`.
     fn new(pos: &'a [P3], tets: Vec<[u32; 4]>, qv: Vec<f64>) -> Self {
-        let (start, csr) = super::sliver::node_tets(pos.len(), &tets);
+        let (start, csr) = crate::volume::tet::sliver::node_tets(pos.len(), &tets);
         TetMesh {
             pos,
             dead: vec![false; tets.len()],
@@ -84,7 +84,7 @@ impl<'a> TetMesh<'a> {
 
     /// Sign of det(b−a, c−a, d−a) (exact).
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> f64 {
-        let [a, b, c, d] = [a, b, c, d].map(|k| crate::connect3d::c3(&self.pos[k as usize]));
+        let [a, b, c, d] = [a, b, c, d].map(|k| crate::volume::connect::c3(&self.pos[k as usize]));
         -robust::orient3d(a, b, c, d)
     }
 
@@ -280,7 +280,7 @@ impl<'a> TetMesh<'a> {
 /// What a flip must improve to be accepted.
 #[derive(Clone, Copy, Debug)]
 enum Goal {
-    /// The worst [`objective`](super::sliver::objective) of the
+    /// The worst [`objective`](crate::volume::tet::sliver::objective) of the
     /// tetrahedra it replaces must rise.
     Worst,
     /// The mesh's mean radius ratio must rise: the new tetrahedra's sum of
@@ -320,7 +320,7 @@ impl Goal {
 }
 
 /// Edge removals and 2-3 flips around every tetrahedron whose
-/// [`objective`](super::sliver::objective) is below [`TARGET_Q`], each
+/// [`objective`](crate::volume::tet::sliver::objective) is below [`TARGET_Q`], each
 /// accepted only when it raises the worst objective of the tetrahedra it
 /// replaces (so it terminates); up to 4 sweeps. `qs[i]` is the objective
 /// of `tets[i]`, on entry and on return. Returns the flips made.
@@ -396,7 +396,7 @@ fn sweep(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::polish::tests::{
+    use crate::volume::tet::polish::tests::{
         assert_positive, boundary_faces, jittered_lattice, mean_q, volume, worst_objective,
     };
 

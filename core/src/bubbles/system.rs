@@ -8,12 +8,12 @@
 use crate::geom::{P3, V3};
 use crate::spacing::{Spacing, SpacingQuery};
 
-use super::constraint::Carrier;
-use super::dynamics::{self, Integrator, K0, MASS};
-use super::force;
-use super::grid::Grid;
-use super::population;
-use super::{EnergySample, MeshError};
+use crate::bubbles::constraint::Carrier;
+use crate::bubbles::dynamics::{self, Integrator, K0, MASS};
+use crate::bubbles::force;
+use crate::bubbles::grid::Grid;
+use crate::bubbles::population;
+use crate::error::MeshError;
 
 /// One pass's bubbles.
 pub struct System<'a, C: Carrier> {
@@ -656,4 +656,15 @@ impl Neighbours {
     fn of(&self, i: usize) -> &[u32] {
         &self.adj[self.start[i] as usize..self.start[i + 1] as usize]
     }
+}
+
+/// One sample of the energy history (thesis Fig. 5.7), in engine units
+/// (k0 · model length²).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct EnergySample {
+    pub step: usize,
+    pub kinetic: f64,
+    pub potential: f64,
+    pub total: f64,
+    pub bubbles: usize,
 }

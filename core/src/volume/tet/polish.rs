@@ -1,8 +1,8 @@
 //! Mean-quality smoothing of a volume's free nodes, the last step of the
 //! volume connection (not in the thesis).
 //!
-//! Why: after stage 2, ODT smoothing ([`super::odt`]) and sliver removal
-//! ([`super::sliver`]) the worst tetrahedra are fixed, but a graded packing
+//! Why: after stage 2, ODT smoothing ([`crate::volume::tet::odt`]) and sliver removal
+//! ([`crate::volume::tet::sliver`]) the worst tetrahedra are fixed, but a graded packing
 //! still leaves many middling ones: on case I (d = 0.02 + 0.1·x) the mean
 //! radius ratio was 0.865, interior tetrahedra 0.876 against 0.909 for the
 //! uniform case H. Moving every free node to raise the *sum* of the radius
@@ -13,7 +13,7 @@
 //! 1.4 s for one pass and 0.8872 in 2.9 s for two. More passes gain
 //! nothing (four: 0.8878): stars hold tetrahedra no move can fix. So
 //! [`polish`] alternates: one pass, then [`FLIP_ROUNDS`] times a sweep of
-//! mean-raising flips ([`super::flip::raise_mean`]) and another pass. On I
+//! mean-raising flips ([`crate::volume::tet::flip::raise_mean`]) and another pass. On I
 //! that gives 0.903 (passes alone 0.8872), on H 0.913 (0.906), on J 0.915
 //! (0.909), for one more pass's time. After a BCC start the volume asks
 //! for the first pass only (see [`FLIP_ROUNDS`]).
@@ -26,8 +26,8 @@
 //! Invariants kept: every tetrahedron of a moved node's star stays
 //! positively oriented (exact `orient3d`), so no node leaves its volume and
 //! the topology — hence the boundary — is unchanged; the worst
-//! [`super::sliver::objective`] of a star never drops below the smaller of
-//! its value before and [`super::sliver::TARGET_Q`], so the sliver pass's
+//! [`crate::volume::tet::sliver::objective`] of a star never drops below the smaller of
+//! its value before and [`crate::volume::tet::sliver::TARGET_Q`], so the sliver pass's
 //! guarantees (radius ratio and dihedral angles) survive.
 //!
 //! Parallel: nodes are greedily coloured so that no two nodes of one colour
@@ -39,13 +39,13 @@ use rayon::prelude::*;
 
 use crate::geom::{P3, V3};
 
-use super::sliver::{radius_ratio_of, Star, TARGET_Q};
+use crate::volume::tet::sliver::{radius_ratio_of, Star, TARGET_Q};
 
 /// Rounds of flips and smoothing after the first pass of [`polish`]. The
 /// caller may ask for fewer. After an FCC start a second round added
 /// 0.0014 to the mean on case I. After a BCC start, whose interior needs
 /// nothing, the volume asks for none: since the sliver pass flips before
-/// it smooths ([`super::sliver::improve`]), one round added 0.0001 to the
+/// it smooths ([`crate::volume::tet::sliver::improve`]), one round added 0.0001 to the
 /// mean on K (857 flips, about 1 s of its time), 0.0008 on H and 0.0010
 /// on J (session 9; minimum and dihedral angles unchanged).
 pub const FLIP_ROUNDS: usize = 2;
@@ -93,7 +93,7 @@ pub fn polish(
     for _ in 0..rounds.min(FLIP_ROUNDS) {
         let mu =
             tets.iter().map(|t| radius_ratio_of(pos, t)).sum::<f64>() / tets.len().max(1) as f64;
-        let flips = super::flip::raise_mean(pos, tets, mu, FLIP_BELOW);
+        let flips = crate::volume::tet::flip::raise_mean(pos, tets, mu, FLIP_BELOW);
         stats.flips += flips;
         if flips == 0 {
             break;
@@ -115,7 +115,7 @@ pub fn smooth(
 ) -> usize {
     let n = pos.len();
     // node -> tetrahedra (CSR)
-    let (start, inc) = super::sliver::node_tets(n, tets);
+    let (start, inc) = crate::volume::tet::sliver::node_tets(n, tets);
     let star = |v: usize| &inc[start[v] as usize..start[v + 1] as usize];
     let mut moved = 0;
     for _ in 0..passes {
@@ -268,13 +268,13 @@ pub(crate) mod tests {
 
     pub(crate) fn worst_objective(pos: &[P3], tets: &[[u32; 4]]) -> f64 {
         tets.iter()
-            .map(|t| super::super::sliver::objective_of(pos, t))
+            .map(|t| crate::volume::tet::sliver::objective_of(pos, t))
             .fold(f64::INFINITY, f64::min)
     }
 
     pub(crate) fn assert_positive(pos: &[P3], tets: &[[u32; 4]]) {
         for t in tets {
-            let [a, b, c, e] = t.map(|k| crate::connect3d::c3(&pos[k as usize]));
+            let [a, b, c, e] = t.map(|k| crate::volume::connect::c3(&pos[k as usize]));
             assert!(robust::orient3d(a, b, c, e) < 0.0, "tet {t:?} not positive");
         }
     }
@@ -294,7 +294,7 @@ pub(crate) mod tests {
     pub(crate) fn boundary_faces(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
         let mut m = std::collections::HashMap::new();
         for t in tets {
-            for f in super::super::sliver::FACE3 {
+            for f in crate::volume::tet::sliver::FACE3 {
                 let mut k = f.map(|i| t[i]);
                 k.sort_unstable();
                 *m.entry(k).or_insert(0usize) += 1;

@@ -287,7 +287,7 @@ fn remove_blockers(
         .collect();
     let rmax = balls.iter().map(|b| b.1).fold(0.0f64, f64::max);
     let centres: Vec<P3> = balls.iter().map(|b| b.0).collect();
-    let grid = crate::engine::grid::Grid::new(&centres, rmax.max(f64::MIN_POSITIVE));
+    let grid = crate::bubbles::grid::Grid::new(&centres, rmax.max(f64::MIN_POSITIVE));
     for i in n_fixed..pts.len() {
         if !kept[i] {
             continue;

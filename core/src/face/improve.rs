@@ -40,10 +40,10 @@ use std::collections::HashSet;
 
 use crate::geom::{P3, V3};
 
-use super::constraint::Carrier;
-use super::dynamics::K0;
-use super::system::System;
-use super::MeshError;
+use crate::bubbles::constraint::Carrier;
+use crate::bubbles::dynamics::K0;
+use crate::bubbles::system::System;
+use crate::error::MeshError;
 
 /// Damping of the Jacobi relaxation step.
 const OMEGA: f64 = 0.6;
@@ -217,7 +217,7 @@ struct Incidence {
 
 impl Incidence {
     fn new(n: usize, tris: &[[usize; 3]]) -> Self {
-        let (start, tri) = super::incidence::node_elements(n, tris, |v| v);
+        let (start, tri) = crate::incidence::node_elements(n, tris, |v| v);
         Incidence {
             start,
             tri,

@@ -2,7 +2,7 @@
 //! boundary is already meshed.
 //!
 //! - The boundary: the triangles of the volume's faces, oriented outward
-//!   ([`super::shell`]); their nodes are the fixed bubbles.
+//!   ([`shell`]); their nodes are the fixed bubbles.
 //! - Stage 1 (§4.1.3, Fig. 4.6): a face-centred cubic packing. With a
 //!   uniform spacing d it is the exact FCC lattice of nearest-neighbour
 //!   distance d (cube side a = √2·d, 4 bubbles per cube); with a varying
@@ -13,7 +13,7 @@
 //!   right when leaf sizes fall anywhere within a factor 2 of the target).
 //! - Stage 2: the same dynamics as on faces, with the volume's equivalent
 //!   stiffness (eq. 4.3.4) and population control for twelve neighbours
-//!   ([`super::population::control_volume`]).
+//!   ([`crate::bubbles::population::control_volume`]).
 //! - Uniform spacing (not in the thesis): a body-centred cubic lattice
 //!   instead ([`Lattice::Bcc`]), and neither stage 2 nor ODT smoothing.
 //!   Why: FCC is the packing the forces favour, but its Delaunay
@@ -33,7 +33,7 @@
 //!   tetrahedra in node order and the local passes: 9.1 s, mean 0.941,
 //!   1.76×; session 9, with the sliver pass flipping before it smooths,
 //!   no flip round in the polish after BCC and the faces' looser plateau
-//!   ([`super::system::PLATEAU_BOUNDARY`]): 7.7–8.4 s, q 0.550 / 0.940,
+//!   ([`crate::bubbles::system::PLATEAU_BOUNDARY`]): 7.7–8.4 s, q 0.550 / 0.940,
 //!   1.02–1.30× in three runs). Where BCC meets a thin part's boundary unrelaxed it is
 //!   worse, so it is given up for FCC when its first tetrahedralization
 //!   looks poor ([`BCC_MAX_BAD`], locked slivers, recovery removals) or
@@ -45,14 +45,18 @@
 //!   always the boundary mesh ([`Shell::inside`]), so no bubble leaves the
 //!   meshed boundary.
 
+pub mod connect;
+pub mod shell;
+pub mod tet;
+
 use crate::geom::{VolumeGeometry, P3, V3};
 use crate::model::EntityRef;
 
-use super::constraint::Carrier;
-use super::placement::MAX_BUBBLES_PER_ENTITY;
-use super::shell::Shell;
-use super::MeshError;
+use crate::bubbles::constraint::Carrier;
+use crate::error::MeshError;
+use crate::face::placement::MAX_BUBBLES_PER_ENTITY;
 use crate::spacing::{Spacing, SpacingQuery};
+use shell::Shell;
 
 /// Octree split factor for varying spacing (see the module docs): a leaf of
 /// side s holds 4 bubbles, FCC density needs s = √2·d, and with leaf sides
@@ -90,7 +94,7 @@ pub const BCC_JITTER: f64 = 1e-6;
 
 /// A BCC start is given up for FCC and stage 2 when more than this
 /// fraction of its Delaunay tetrahedra are below the sliver target
-/// ([`super::sliver::TARGET_Q`]). Where the lattice meets the boundary's
+/// ([`tet::sliver::TARGET_Q`]). Where the lattice meets the boundary's
 /// bubbles unrelaxed, thin parts get many poor tetrahedra, and the sliver
 /// pass then costs more than stage 2 and ODT would have: b3d_flange at 1.5
 /// had 3.6 % (mean 0.899 in 28 s against FCC's 0.912 in 10 s), b3d_bracket
@@ -109,7 +113,7 @@ pub const BCC_MAX_BAD: f64 = 0.02;
 /// and that is kept, for 3–10× less time.
 ///
 /// Why the measures themselves and not a floor on the
-/// [`super::sliver::objective`]: the objective maps 25° to 0.514 but 140°
+/// [`tet::sliver::objective`]: the objective maps 25° to 0.514 but 140°
 /// to 0.530, and a floor of 0.53 on it sent case K to FCC (168 s instead
 /// of 15 s) for four tetrahedra at 25.4°, inside the bounds.
 pub const BCC_FLOOR_RR: f64 = 0.5;
@@ -120,12 +124,12 @@ pub const BCC_FLOOR_DIHEDRAL: (f64, f64) = (25.0, 140.0);
 fn below_bcc_floor(pos: &[P3], t: &[u32; 4]) -> bool {
     // an objective of 0.55 or more means ρ ≥ 0.55 and angles within
     // [26.8°, 138.5°]: the measures only for the few below
-    if super::sliver::objective_of(pos, t) >= 0.55 {
+    if tet::sliver::objective_of(pos, t) >= 0.55 {
         return false;
     }
     let [a, b, c, d] = t.map(|k| pos[k as usize]);
-    let (lo, hi) = super::sliver::dihedral_extremes(&a, &b, &c, &d);
-    super::sliver::radius_ratio(&a, &b, &c, &d) < BCC_FLOOR_RR
+    let (lo, hi) = tet::sliver::dihedral_extremes(&a, &b, &c, &d);
+    tet::sliver::radius_ratio(&a, &b, &c, &d) < BCC_FLOOR_RR
         || lo < BCC_FLOOR_DIHEDRAL.0
         || hi > BCC_FLOOR_DIHEDRAL.1
 }
@@ -252,7 +256,7 @@ pub fn lattice_seeds(
             entity,
             params: [0.0; 2],
         });
-        super::check_spacing(d, *p, entity)
+        crate::error::check_spacing(d, *p, entity)
     };
     let ext = hi - lo;
     let mut cand: Vec<P3> = Vec::new();
@@ -327,7 +331,7 @@ pub fn lattice_seeds(
     }
     // keep those inside and clear of the boundary
     let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
-    let grid = super::grid::Grid::new(fixed, dmax_fixed.max(f64::MIN_POSITIVE));
+    let grid = crate::bubbles::grid::Grid::new(fixed, dmax_fixed.max(f64::MIN_POSITIVE));
     let mut out = Vec::new();
     // a fixed seed: the same mesh on every run
     let mut unit = jitter_source(0x9E37_79B9_7F4A_7C15);
@@ -377,7 +381,7 @@ pub struct VolumeReport {
     pub tetrahedra: usize,
     /// Free bubbles removed to recover boundary triangles.
     pub recovery_removed: usize,
-    /// Optimal-Delaunay smoothing iterations ([`super::odt`]).
+    /// Optimal-Delaunay smoothing iterations ([`tet::odt`]).
     pub odt_iterations: usize,
     /// Seconds in ODT smoothing, the conforming Delaunay connection and
     /// sliver removal.
@@ -385,16 +389,16 @@ pub struct VolumeReport {
     pub delaunay_s: f64,
     pub sliver_s: f64,
     /// Sliver-removal statistics.
-    pub slivers: super::sliver::SliverStats,
+    pub slivers: tet::sliver::SliverStats,
     /// Node moves and flips of the mean-quality step
-    /// ([`super::polish::polish`]), and its seconds.
+    /// ([`tet::polish::polish`]), and its seconds.
     pub polish_moves: usize,
     pub polish_flips: usize,
     pub polish_s: f64,
     /// Steiner points added inside slivers that smoothing and flips could
-    /// not remove ([`super::sliver::steiner_points`]).
+    /// not remove ([`tet::sliver::steiner_points`]).
     pub steiner: usize,
-    pub relax: Option<super::system::RelaxStats>,
+    pub relax: Option<crate::bubbles::system::RelaxStats>,
 }
 
 /// The outward-oriented boundary triangles (global node ids) of volume
@@ -414,19 +418,19 @@ pub fn boundary_of(
     // a face listed twice (an internal face of a non-manifold solid) bounds
     // the volume on both sides: not supported here
     let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
-    super::shell::orient_outward(&pos, &mut tris).map_err(MeshError::Invalid)?;
+    shell::orient_outward(&pos, &mut tris).map_err(MeshError::Invalid)?;
     Ok(tris)
 }
 
 /// A failed tetrahedralization as a [`MeshError`]: boundary triangles that
 /// are not faces of the tetrahedralization name their faces, which a finer
-/// surface mesh may make Delaunay ([`super::refine`]).
+/// surface mesh may make Delaunay ([`crate::engine::refine`]).
 fn connect_error(
-    e: crate::connect3d::Connect3dError,
+    e: connect::Connect3dError,
     boundary: &[[u32; 3]],
     mesh: &crate::mesh::Mesh,
 ) -> MeshError {
-    let crate::connect3d::Connect3dError::NotConforming { triangles, .. } = &e else {
+    let connect::Connect3dError::NotConforming { triangles, .. } = &e else {
         return MeshError::Invalid(e.to_string());
     };
     let sorted = |mut t: [u32; 3]| {
@@ -462,13 +466,13 @@ fn redo_from_fcc(
     model: &crate::model::Model,
     vi: usize,
     spacing: &dyn Spacing,
-    opts: &super::Options,
+    opts: &crate::engine::Options,
     mesh: &mut crate::mesh::Mesh,
     node_d: &[f64],
-    timings: &mut super::Timings,
+    timings: &mut crate::engine::Timings,
     frac: f64,
 ) -> Result<VolumeReport, MeshError> {
-    let fcc = super::Options {
+    let fcc = crate::engine::Options {
         volume_lattice: VolumeLattice::Fcc,
         ..opts.clone()
     };
@@ -483,10 +487,10 @@ pub(super) fn mesh_volume(
     model: &crate::model::Model,
     vi: usize,
     spacing: &dyn Spacing,
-    opts: &super::Options,
+    opts: &crate::engine::Options,
     mesh: &mut crate::mesh::Mesh,
     node_d: &[f64],
-    timings: &mut super::Timings,
+    timings: &mut crate::engine::Timings,
 ) -> Result<VolumeReport, MeshError> {
     use std::time::Instant;
     let t0 = Instant::now();
@@ -550,7 +554,7 @@ pub(super) fn mesh_volume(
         stage1_bubbles: seeds.len(),
         ..Default::default()
     };
-    let mut sys = super::system::System {
+    let mut sys = crate::bubbles::system::System {
         carrier,
         spacing,
         dim: 3,
@@ -563,7 +567,7 @@ pub(super) fn mesh_volume(
         pressure: if spacing.constant().is_some() {
             1.0
         } else {
-            super::system::PRESSURE
+            crate::bubbles::system::PRESSURE
         },
     };
     for (p, d) in seeds {
@@ -578,13 +582,13 @@ pub(super) fn mesh_volume(
         // and the ODT smoothing after stage 2 finishes the job: more steps
         // cost time in proportion to the bubbles and did not improve the
         // tetrahedra (measured on cases H, I with bench/run_3d.py)
-        let settings = super::system::RelaxSettings {
+        let settings = crate::bubbles::system::RelaxSettings {
             max_steps: opts.relax.max_steps.min(VOLUME_MAX_STEPS),
             ..opts.relax
         };
         let stats = sys.relax(
             &settings,
-            super::relax_progress(&opts.progress, ve, settings.max_steps),
+            crate::engine::relax_progress(&opts.progress, ve, settings.max_steps),
         )?;
         rep.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();
@@ -593,17 +597,17 @@ pub(super) fn mesh_volume(
     // connection
     let t3 = Instant::now();
     if relax {
-        rep.odt_iterations = super::odt::smooth(
+        rep.odt_iterations = tet::odt::smooth(
             &mut sys.pos,
             n_fixed,
             &sys.d,
             &sys.carrier,
-            super::odt::ITERATIONS,
+            tet::odt::ITERATIONS,
         );
     }
     rep.odt_s = t3.elapsed().as_secs_f64();
     let t = Instant::now();
-    let conn = crate::connect3d::connect_volume(&sys.pos, n_fixed, &local_tris)
+    let conn = connect::connect_volume(&sys.pos, n_fixed, &local_tris)
         .map_err(|e| connect_error(e, &boundary, mesh))?;
     rep.delaunay_s = t.elapsed().as_secs_f64();
     // the objectives of the first tetrahedralization: read here after a BCC
@@ -613,9 +617,9 @@ pub(super) fn mesh_volume(
         let qs: Vec<f64> = conn
             .tets
             .iter()
-            .map(|t| super::sliver::objective_of(&sys.pos, t))
+            .map(|t| tet::sliver::objective_of(&sys.pos, t))
             .collect();
-        let poor = |k: usize| qs[k] < super::sliver::TARGET_Q;
+        let poor = |k: usize| qs[k] < tet::sliver::TARGET_Q;
         let frac = (0..qs.len()).filter(|&k| poor(k)).count() as f64 / qs.len().max(1) as f64;
         // poor tetrahedra among boundary nodes only (or nodes the recovery
         // removed) need Steiner rounds, each a full re-connection:
@@ -649,23 +653,21 @@ pub(super) fn mesh_volume(
         let mut work: Vec<[u32; 4]> = tets
             .iter()
             .filter(|t| {
-                locked(t, &movable)
-                    && super::sliver::radius_ratio_of(&pos, t) < super::sliver::FLAT_Q
+                locked(t, &movable) && tet::sliver::radius_ratio_of(&pos, t) < tet::sliver::FLAT_Q
             })
             .cloned()
             .collect();
         rep.slivers = match first_qs.take() {
-            Some(qs) => super::sliver::improve_with(&mut pos, &mut movable, &mut tets, &d, qs),
-            None => super::sliver::improve(&mut pos, &mut movable, &mut tets, &d),
+            Some(qs) => tet::sliver::improve_with(&mut pos, &mut movable, &mut tets, &d, qs),
+            None => tet::sliver::improve(&mut pos, &mut movable, &mut tets, &d),
         };
-        for _ in 0..super::sliver::STEINER_ROUNDS {
+        for _ in 0..tet::sliver::STEINER_ROUNDS {
             // and those that improve() left
             work.extend(tets.iter().filter(|t| {
-                locked(t, &movable)
-                    && super::sliver::objective_of(&pos, t) < super::sliver::TARGET_Q
+                locked(t, &movable) && tet::sliver::objective_of(&pos, t) < tet::sliver::TARGET_Q
             }));
             let extra =
-                super::sliver::steiner_points(&pos, &work, &d, |p| sys.carrier.contains_point(p));
+                tet::sliver::steiner_points(&pos, &work, &d, |p| sys.carrier.contains_point(p));
             work.clear();
             if extra.is_empty() {
                 break;
@@ -685,7 +687,7 @@ pub(super) fn mesh_volume(
                 pos2.push(p);
                 d2.push(dp);
             }
-            let conn = crate::connect3d::connect_volume(&pos2, n_fixed, &local_tris)
+            let conn = connect::connect_volume(&pos2, n_fixed, &local_tris)
                 .map_err(|e| connect_error(e, &boundary, mesh))?;
             rep.recovery_removed += conn.removed;
             movable = (0..pos2.len())
@@ -694,7 +696,7 @@ pub(super) fn mesh_volume(
             tets = conn.tets;
             pos = pos2;
             d = d2;
-            let s = super::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
+            let s = tet::sliver::improve(&mut pos, &mut movable, &mut tets, &d);
             rep.slivers.moves += s.moves;
             rep.slivers.flips += s.flips;
             rep.slivers.bad_after = s.bad_after;
@@ -707,9 +709,9 @@ pub(super) fn mesh_volume(
         // no flip round after BCC (see FLIP_ROUNDS)
         let rounds = match lattice {
             Lattice::Bcc => 0,
-            Lattice::Fcc => super::polish::FLIP_ROUNDS,
+            Lattice::Fcc => tet::polish::FLIP_ROUNDS,
         };
-        let stats = super::polish::polish(&mut pos, &movable, &mut tets, &d, rounds);
+        let stats = tet::polish::polish(&mut pos, &movable, &mut tets, &d, rounds);
         rep.polish_moves = stats.moves;
         rep.polish_flips = stats.flips;
         rep.polish_s = t.elapsed().as_secs_f64();
@@ -718,7 +720,7 @@ pub(super) fn mesh_volume(
         // flips keep every star's worst above min(before, TARGET_Q)): that
         // saves a scan of the mesh
         let s = if rep.slivers.bad_after > 0 {
-            super::sliver::improve_near_bad(&mut pos, &movable, &mut tets, &d)
+            tet::sliver::improve_near_bad(&mut pos, &movable, &mut tets, &d)
         } else {
             None
         };
@@ -749,7 +751,7 @@ pub(super) fn mesh_volume(
     // refuse the volume instead, naming where
     if let Some(t) = tets
         .iter()
-        .find(|t| super::sliver::radius_ratio_of(&pos, t) < super::sliver::FLAT_Q)
+        .find(|t| tet::sliver::radius_ratio_of(&pos, t) < tet::sliver::FLAT_Q)
     {
         let c = t
             .iter()
@@ -761,7 +763,7 @@ pub(super) fn mesh_volume(
             c.x,
             c.y,
             c.z,
-            super::sliver::FLAT_Q,
+            tet::sliver::FLAT_Q,
             rep.steiner
         )));
     }

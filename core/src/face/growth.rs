@@ -30,9 +30,9 @@ use std::collections::{HashMap, VecDeque};
 
 use crate::geom::{P3, V3};
 
-use super::constraint::Carrier;
-use super::placement::{Seed, MAX_BUBBLES_PER_ENTITY};
-use super::MeshError;
+use crate::bubbles::constraint::Carrier;
+use crate::error::MeshError;
+use crate::face::placement::{Seed, MAX_BUBBLES_PER_ENTITY};
 
 /// A proposal closer than ACCEPT·(d_i + d_j)/2 to an existing bubble is
 /// rejected. In a hexagonal lattice every point is

@@ -14,7 +14,7 @@
 use crate::geom::{Surface, P3, V3};
 use crate::model::EntityRef;
 
-use super::region::Region;
+use crate::face::region::Region;
 
 /// How bubbles of one entity move.
 pub trait Carrier: Sync {

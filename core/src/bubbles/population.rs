@@ -33,10 +33,10 @@ use std::collections::HashMap;
 
 use crate::geom::{P3, V3};
 
-use super::constraint::Carrier;
-use super::grid::Grid;
-use super::system::{Pair, System};
-use super::MeshError;
+use crate::bubbles::constraint::Carrier;
+use crate::bubbles::grid::Grid;
+use crate::bubbles::system::{Pair, System};
+use crate::error::MeshError;
 
 /// Delete a free bubble whose excess ratio exceeds this.
 pub const EXCESS: f64 = 0.7;

@@ -10,8 +10,8 @@
 
 use crate::geom::{Curve, P3};
 
-use super::constraint::Carrier;
-use super::MeshError;
+use crate::bubbles::constraint::Carrier;
+use crate::error::MeshError;
 
 /// Upper bound on bubbles one entity may receive; a spacing that asks for
 /// more is almost certainly a unit mistake and is reported instead of

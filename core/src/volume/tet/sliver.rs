@@ -5,7 +5,7 @@
 //! *slivers*: four nearly cospherical, nearly coplanar points make a flat
 //! tetrahedron with a good circumsphere but a tiny volume. They are removed
 //! here by flips that raise the worst tetrahedron they touch
-//! ([`super::flip::raise_worst`]), then by moving the free corners of
+//! ([`crate::volume::tet::flip::raise_worst`]), then by moving the free corners of
 //! what the flips leave: a pattern search over small moves
 //! (at most [`MAX_MOVE`]·d in total) that raises the worst radius ratio of
 //! the node's star, accepted only when every tetrahedron of the star stays
@@ -265,7 +265,7 @@ pub fn steiner_points(
 /// The tetrahedra around each of `n` nodes, as a compressed table: those
 /// of node v are `inc[start[v]..start[v + 1]]`, in increasing order.
 pub(crate) fn node_tets(n: usize, tets: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
-    super::incidence::node_elements(n, tets, |v| v as usize)
+    crate::incidence::node_elements(n, tets, |v| v as usize)
 }
 
 /// Node `v`'s star gathered for a search that moves v alone (the sliver
@@ -349,9 +349,9 @@ impl Star {
 
     /// Whether every tetrahedron is positive with v at `x` (exact).
     pub(crate) fn positive(&self, x: &P3) -> bool {
-        let x = crate::connect3d::c3(x);
+        let x = crate::volume::connect::c3(x);
         self.faces.iter().all(|(f, _)| {
-            let [a, b, c] = f.map(|p| crate::connect3d::c3(&p));
+            let [a, b, c] = f.map(|p| crate::volume::connect::c3(&p));
             robust::orient3d(x, a, b, c) < 0.0
         })
     }
@@ -401,7 +401,7 @@ pub fn improve_with(
         if stats.bad_after == 0 {
             break;
         }
-        stats.flips += super::flip::raise_worst(pos, tets, &mut qs);
+        stats.flips += crate::volume::tet::flip::raise_worst(pos, tets, &mut qs);
         let s = smooth(pos, movable, tets, d, &mut qs);
         stats.moves += s.moves;
         stats.bad_after = s.bad_after;
@@ -622,7 +622,7 @@ mod tests {
     /// every shape (regular-ish to slivers, caps, needles and inverted).
     #[test]
     fn objective_matches_its_definition() {
-        let mut rnd = crate::engine::volume::jitter_source(0x9e37_79b9_7f4a_7c15);
+        let mut rnd = crate::volume::jitter_source(0x9e37_79b9_7f4a_7c15);
         let mut skipped = 0;
         for k in 0..20000 {
             let scale = [1.0, 0.3, 0.02][k % 3];
@@ -712,13 +712,13 @@ mod tests {
     /// volume and boundary faces, a higher worst objective.
     #[test]
     fn improve_near_bad_stays_near_the_bad_tetrahedra() {
-        use crate::engine::polish::tests::{
+        use crate::volume::tet::polish::tests::{
             assert_positive, boundary_faces, volume, worst_objective,
         };
         // a BCC lattice (cube corners and centres, Delaunay tetrahedra all
         // of radius ratio 0.95) with one node pushed towards a neighbour
         let k = 7;
-        let mut rnd = crate::engine::volume::jitter_source(7);
+        let mut rnd = crate::volume::jitter_source(7);
         let mut pos = Vec::new();
         let mut movable = Vec::new();
         for i in 0..k {

@@ -8,7 +8,7 @@
 //! (2√3 + 4) k0 on a surface and (4√3 + 4√6 + 16)/3 k0 in a volume
 //! (eq. 4.3.4); the damping is chosen for a damping ratio
 //! ζ = c / (2√(m k)) = 0.7 (eq. 4.3.19), near the minimum 2–5 % settling time.
-//! Because the force scales with the stable distance (see [`super::force`]),
+//! Because the force scales with the stable distance (see [`crate::bubbles::force`]),
 //! the dynamics are the same at every model size.
 
 /// Point mass of every bubble (engine units).
