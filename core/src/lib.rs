@@ -32,6 +32,7 @@ pub mod geom;
 pub(crate) mod incidence;
 pub mod mesh;
 pub mod model;
+pub mod options;
 pub mod quality;
 pub mod spacing;
 pub mod verify;

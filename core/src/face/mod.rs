@@ -16,11 +16,11 @@ use std::time::Instant;
 use crate::bubbles::constraint::{self, Carrier, OnFace};
 use crate::bubbles::grid;
 use crate::bubbles::system::{self, RelaxStats, System};
-use crate::engine::{relax_progress, Options, Timings};
 use crate::error::{check_spacing, MeshError};
 use crate::geom::{P3, V3};
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
+use crate::options::{relax_progress, Options, Timings};
 use crate::spacing::{Spacing, SpacingQuery};
 
 use region::Region;

@@ -45,6 +45,8 @@
 //!   always the boundary mesh ([`Shell::inside`]), so no bubble leaves the
 //!   meshed boundary.
 
+pub use crate::options::VolumeLattice;
+
 pub mod connect;
 pub mod shell;
 pub mod tet;
@@ -144,17 +146,6 @@ pub enum Lattice {
     /// Body-centred cubic: 2 bubbles per cube of side [`BCC_CELL`]·d,
     /// for a uniform spacing only.
     Bcc,
-}
-
-/// Which lattice volumes start from (an engine option).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum VolumeLattice {
-    /// BCC (and no stage 2 or ODT) where the spacing is uniform, FCC
-    /// elsewhere.
-    #[default]
-    Auto,
-    /// Always FCC followed by stage 2, as in the thesis.
-    Fcc,
 }
 
 /// d(x) scaled by a constant factor.
@@ -466,13 +457,13 @@ fn redo_from_fcc(
     model: &crate::model::Model,
     vi: usize,
     spacing: &dyn Spacing,
-    opts: &crate::engine::Options,
+    opts: &crate::options::Options,
     mesh: &mut crate::mesh::Mesh,
     node_d: &[f64],
-    timings: &mut crate::engine::Timings,
+    timings: &mut crate::options::Timings,
     frac: f64,
 ) -> Result<VolumeReport, MeshError> {
-    let fcc = crate::engine::Options {
+    let fcc = crate::options::Options {
         volume_lattice: VolumeLattice::Fcc,
         ..opts.clone()
     };
@@ -487,10 +478,10 @@ pub(super) fn mesh_volume(
     model: &crate::model::Model,
     vi: usize,
     spacing: &dyn Spacing,
-    opts: &crate::engine::Options,
+    opts: &crate::options::Options,
     mesh: &mut crate::mesh::Mesh,
     node_d: &[f64],
-    timings: &mut crate::engine::Timings,
+    timings: &mut crate::options::Timings,
 ) -> Result<VolumeReport, MeshError> {
     use std::time::Instant;
     let t0 = Instant::now();
@@ -588,7 +579,7 @@ pub(super) fn mesh_volume(
         };
         let stats = sys.relax(
             &settings,
-            crate::engine::relax_progress(&opts.progress, ve, settings.max_steps),
+            crate::options::relax_progress(&opts.progress, ve, settings.max_steps),
         )?;
         rep.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();
