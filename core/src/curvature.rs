@@ -38,10 +38,12 @@ pub struct Principal {
     /// Principal curvatures (sign relative to `normal`), |k1| ≥ |k2|, in
     /// 1/model units.
     pub k1: f64,
+    /// The other principal curvature, |k2| ≤ |k1|.
     pub k2: f64,
     /// Unit principal directions of k1 and k2; `dir2 = normal × dir1`. At
     /// an umbilic (k1 = k2) dir1 is along S_u.
     pub dir1: V3,
+    /// Unit principal direction of k2.
     pub dir2: V3,
 }
 
@@ -180,10 +182,13 @@ pub fn triangle_spacing(kappa: f64, eps: f64, d_min: f64, d_max: f64) -> f64 {
 
 /// d from the curvature of the entity a point lies on.
 pub struct Curvature {
+    /// The model whose curvature sets the spacing.
     pub model: Arc<Model>,
     /// Allowed distance from the mesh to the geometry (ε).
     pub eps: f64,
+    /// Smallest spacing, in model units.
     pub d_min: f64,
+    /// Largest spacing (where the entity is flat), in model units.
     pub d_max: f64,
     /// Spacing at each model vertex: the smallest over the edges that end
     /// there (a vertex bubble sits on all of them).
@@ -194,6 +199,8 @@ pub struct Curvature {
 }
 
 impl Curvature {
+    /// The curvature spacing of `model` for the chord tolerance `eps`,
+    /// clamped to `[d_min, d_max]`.
     pub fn new(model: Arc<Model>, eps: f64, d_min: f64, d_max: f64) -> Self {
         let edge_faces = edge_faces(&model);
         let mut c = Curvature {
@@ -270,9 +277,13 @@ impl Spacing for Curvature {
 /// View-based spacing d = a·|V0 − x| (eq. 4.6.2), clamped to [d_min, d_max]:
 /// small elements near the viewpoint V0, large far away.
 pub struct View {
+    /// The viewpoint V0.
     pub viewpoint: P3,
+    /// The factor a (spacing per unit of distance).
     pub factor: f64,
+    /// Smallest spacing, in model units.
     pub d_min: f64,
+    /// Largest spacing, in model units.
     pub d_max: f64,
 }
 

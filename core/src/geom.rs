@@ -74,11 +74,17 @@ pub fn length_between<C: Curve + ?Sized>(c: &C, a: f64, b: f64) -> f64 {
 /// Value and partial derivatives of a surface at one (u,v).
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceDerivs {
+    /// S(u,v).
     pub p: P3,
+    /// ∂S/∂u.
     pub su: V3,
+    /// ∂S/∂v.
     pub sv: V3,
+    /// ∂²S/∂u².
     pub suu: V3,
+    /// ∂²S/∂u∂v.
     pub suv: V3,
+    /// ∂²S/∂v².
     pub svv: V3,
 }
 
@@ -143,8 +149,11 @@ pub trait VolumeGeometry: Send + Sync + std::fmt::Debug {
 /// 2D domains use the plane z = 0 with (u,v) = (x,y).
 #[derive(Clone, Copy, Debug)]
 pub struct Plane {
+    /// S(0, 0).
     pub origin: P3,
+    /// The u direction (unit length).
     pub e1: V3,
+    /// The v direction (unit length, orthogonal to `e1`).
     pub e2: V3,
 }
 

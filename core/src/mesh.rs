@@ -15,6 +15,7 @@ use crate::model::{EntityRef, Model};
 /// A mesh node.
 #[derive(Clone, Copy, Debug)]
 pub struct Node {
+    /// Position, in model units.
     pub pos: P3,
     /// The entity the node lies on (a vertex, an edge, a face or a volume).
     pub entity: EntityRef,
@@ -25,28 +26,37 @@ pub struct Node {
 /// An element: node indices and the entity it meshes.
 #[derive(Clone, Copy, Debug)]
 pub struct Element<const N: usize> {
+    /// Indices into [`Mesh::nodes`]; triangles counter-clockwise seen from
+    /// outside their volume, tetrahedra positively oriented.
     pub nodes: [u32; N],
+    /// The model entity the element meshes.
     pub entity: EntityRef,
 }
 
 /// A model entity as the writers need it.
 #[derive(Clone, Debug)]
 pub struct EntityInfo {
+    /// Which entity.
     pub entity: EntityRef,
     /// Signed 1-based tags of the bounding entities of dimension `dim - 1`
     /// (negative: used reversed).
     pub boundary: Vec<i32>,
+    /// The entity's name in the model, if any.
     pub name: Option<String>,
 }
 
 /// A simplicial mesh.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
+    /// Every node, once.
     pub nodes: Vec<Node>,
     /// Line segments on edges.
     pub lines: Vec<Element<2>>,
+    /// Triangles on faces.
     pub triangles: Vec<Element<3>>,
+    /// Tetrahedra in volumes.
     pub tetrahedra: Vec<Element<4>>,
+    /// The model's entities with their boundaries, for the writers.
     pub entities: Vec<EntityInfo>,
 }
 

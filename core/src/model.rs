@@ -12,11 +12,14 @@ use crate::geom::{Curve, Surface, VolumeGeometry, P3};
 /// The dimension and id of a model entity: 0 vertex, 1 edge, 2 face, 3 volume.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct EntityRef {
+    /// Dimension: 0 vertex, 1 edge, 2 face, 3 volume.
     pub dim: u8,
+    /// Index into the model's list of entities of that dimension.
     pub id: u32,
 }
 
 impl EntityRef {
+    /// The entity `id` of dimension `dim`.
     pub fn new(dim: u8, id: u32) -> Self {
         EntityRef { dim, id }
     }
@@ -32,7 +35,9 @@ impl std::fmt::Display for EntityRef {
 /// A model vertex: a fixed point (a vertex bubble, thesis §3.2.3 step 1).
 #[derive(Clone, Debug)]
 pub struct Vertex {
+    /// Position, in model units.
     pub point: P3,
+    /// The name the input gave it (a STEP product or entity name), if any.
     pub name: Option<String>,
 }
 
@@ -43,17 +48,24 @@ pub struct Vertex {
 /// `curve.point(t1) == vertices[end].point` to within the model tolerance.
 #[derive(Clone, Debug)]
 pub struct Edge {
+    /// The carrier curve.
     pub curve: Arc<dyn Curve>,
+    /// Curve parameter at the start vertex.
     pub t0: f64,
+    /// Curve parameter at the end vertex (`t1 > t0`).
     pub t1: f64,
+    /// Index of the start vertex.
     pub start: u32,
+    /// Index of the end vertex.
     pub end: u32,
+    /// The name the input gave it (a STEP product or entity name), if any.
     pub name: Option<String>,
 }
 
 /// One use of an edge in a face loop.
 #[derive(Clone, Copy, Debug)]
 pub struct EdgeUse {
+    /// Index of the edge.
     pub edge: u32,
     /// `true` when the loop runs from the edge's start to its end.
     pub forward: bool,
@@ -65,12 +77,15 @@ pub struct EdgeUse {
 /// adapters keep it.
 #[derive(Clone, Debug, Default)]
 pub struct Loop {
+    /// The edge uses in order along the loop.
     pub edges: Vec<EdgeUse>,
 }
 
 /// A model face: a trimmed region of a surface.
 #[derive(Clone, Debug)]
 pub struct Face {
+    /// The carrier surface; the face is the part of its (u,v) domain inside
+    /// the loops.
     pub surface: Arc<dyn Surface>,
     /// Boundary loops: the first is the outer loop, the others holes.
     pub loops: Vec<Loop>,
@@ -79,23 +94,31 @@ pub struct Face {
     pub embedded_edges: Vec<u32>,
     /// Constraint points inside the face that the mesh must contain.
     pub embedded_vertices: Vec<u32>,
+    /// The name the input gave it (a STEP product or entity name), if any.
     pub name: Option<String>,
 }
 
 /// A model volume bounded by faces.
 #[derive(Clone, Debug)]
 pub struct Volume {
+    /// Indices of the faces that bound it (its closed shell or shells).
     pub faces: Vec<u32>,
+    /// An exact inside/outside answer, where the adapter has one.
     pub geometry: Option<Arc<dyn VolumeGeometry>>,
+    /// The name the input gave it (a STEP product or entity name), if any.
     pub name: Option<String>,
 }
 
 /// The model handed to the engine.
 #[derive(Clone, Debug, Default)]
 pub struct Model {
+    /// Vertices, indexed by [`EntityRef::id`] with dimension 0.
     pub vertices: Vec<Vertex>,
+    /// Edges (dimension 1).
     pub edges: Vec<Edge>,
+    /// Faces (dimension 2).
     pub faces: Vec<Face>,
+    /// Volumes (dimension 3).
     pub volumes: Vec<Volume>,
     /// Parameter-space curves: for (face, edge), the curve in the face's
     /// (u,v) whose image is the edge (its x, y are u, v), on the edge's own

@@ -71,16 +71,32 @@ impl Spacing for Constant {
 /// Errors from parsing a spacing expression.
 #[derive(Debug, thiserror::Error)]
 pub enum ExprError {
+    /// The text is not an expression.
     #[error("cannot parse spacing expression '{expr}': {reason}")]
-    Parse { expr: String, reason: String },
+    Parse {
+        /// The expression as given.
+        expr: String,
+        /// The parser's reason.
+        reason: String,
+    },
+    /// The expression names a variable other than x, y, z.
     #[error(
         "spacing expression '{expr}' uses unknown variable '{var}' (only x, y, z are defined)"
     )]
-    UnknownVariable { expr: String, var: String },
+    UnknownVariable {
+        /// The expression as given.
+        expr: String,
+        /// The unknown name.
+        var: String,
+    },
+    /// The expression evaluates to zero, a negative or a non-finite value.
     #[error("spacing expression '{expr}' is {value} at {at}; a spacing must be finite and > 0")]
     NotPositive {
+        /// The expression as given.
         expr: String,
+        /// The value it took.
         value: f64,
+        /// Where, as text.
         at: String,
     },
 }
@@ -363,8 +379,11 @@ impl Spacing for ProductOf {
 
 /// A spacing clamped to `[min, max]`.
 pub struct Clamped<S: Spacing> {
+    /// The spacing clamped.
     pub inner: S,
+    /// Lower bound, in model units.
     pub min: f64,
+    /// Upper bound, in model units.
     pub max: f64,
 }
 
