@@ -16,6 +16,8 @@
 // `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it is also
 // true for NaN, which is how invalid input is rejected without a panic.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod curves;
 pub mod domain;

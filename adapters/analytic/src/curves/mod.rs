@@ -40,7 +40,12 @@ pub enum GeometryError {
     #[error(
         "arc angles must satisfy start < end ≤ start + 2π (got start {start} rad, end {end} rad)"
     )]
-    BadAngles { start: f64, end: f64 },
+    BadAngles {
+        /// Start angle, radians.
+        start: f64,
+        /// End angle, radians.
+        end: f64,
+    },
     /// A zero normal, or a plane basis whose vectors are zero or parallel.
     #[error("degenerate plane: {0}")]
     BadPlane(&'static str),
@@ -49,10 +54,20 @@ pub enum GeometryError {
     Collinear,
     /// A NURBS degree outside `1..=MAX_NURBS_DEGREE`.
     #[error("NURBS degree must be between 1 and {max} (got {got})")]
-    BadDegree { got: usize, max: usize },
+    BadDegree {
+        /// The degree given.
+        got: usize,
+        /// The largest degree supported.
+        max: usize,
+    },
     /// Too few control points for the degree.
     #[error("a NURBS of degree {degree} needs at least {} control points (got {got})", degree + 1)]
-    TooFewControlPoints { degree: usize, got: usize },
+    TooFewControlPoints {
+        /// The degree.
+        degree: usize,
+        /// The number of control points given.
+        got: usize,
+    },
     /// Weight vector of the wrong length or with a non-positive entry.
     #[error("bad NURBS weights: {0}")]
     BadWeights(String),

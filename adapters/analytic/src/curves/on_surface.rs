@@ -14,7 +14,9 @@ use bubblemesh_core::geom::{Curve, Surface, P3, V3};
 /// are u, v; its z is ignored).
 #[derive(Debug, Clone)]
 pub struct CurveOnSurface {
+    /// The surface the curve lies on.
     pub surface: Arc<dyn Surface>,
+    /// The curve in the surface's (u,v) (x = u, y = v).
     pub pcurve: Arc<dyn Curve>,
 }
 

@@ -14,30 +14,50 @@ pub enum DomainError {
     /// The file could not be read (missing, unreadable, not UTF-8).
     #[error("{file}: cannot read the file: {source}")]
     Io {
+        /// The file.
         file: String,
+        /// What the operating system said.
         #[source]
         source: std::io::Error,
     },
     /// The text is not TOML; `message` is the TOML parser's message, which
     /// gives the line and column.
     #[error("{file}: not valid TOML: {message}")]
-    Toml { file: String, message: String },
+    Toml {
+        /// The file.
+        file: String,
+        /// The TOML parser's message.
+        message: String,
+    },
     /// The `format` key is missing, not a string, or names another format or
     /// version.
     #[error("{file}: {reason}")]
-    Format { file: String, reason: String },
+    Format {
+        /// The file.
+        file: String,
+        /// What is wrong with the `format` key.
+        reason: String,
+    },
     /// The TOML does not follow the schema (unknown key, missing key, wrong
     /// type); `message` is the TOML deserialiser's message with line and
     /// column.
     #[error("{file}: not a valid bubblemesh domain: {message}")]
-    Schema { file: String, message: String },
+    Schema {
+        /// The file.
+        file: String,
+        /// The deserialiser's message.
+        message: String,
+    },
     /// The description is well-formed but geometrically invalid; `entity`
     /// names the offending part, e.g. `face 'plate' (face #1), hole 2`
     /// (empty when the problem concerns the whole file).
     #[error("{file}: {}{reason}", entity_prefix(.entity))]
     Invalid {
+        /// The file.
         file: String,
+        /// The offending part (empty: the whole file).
         entity: String,
+        /// Why it is invalid.
         reason: String,
     },
 }

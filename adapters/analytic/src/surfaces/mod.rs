@@ -76,20 +76,30 @@ pub enum SurfaceError {
     /// allows.
     #[error("bad parameter range [{lo}, {hi}]: {what}")]
     BadRange {
+        /// Which range.
         what: &'static str,
+        /// Its lower end.
         lo: f64,
+        /// Its upper end.
         hi: f64,
     },
     /// Torus radii that do not satisfy major > minor > 0.
     #[error("torus radii must satisfy major > minor > 0 (got major {major}, minor {minor})")]
-    BadTorus { major: f64, minor: f64 },
+    BadTorus {
+        /// Major radius.
+        major: f64,
+        /// Minor radius.
+        minor: f64,
+    },
     /// A NURBS control net or weight net that is not rectangular.
     #[error("bad NURBS control net: {0}")]
     BadNet(String),
     /// A NURBS knot vector, degree or point count rejected in one direction.
     #[error("NURBS surface, {dir} direction: {source}")]
     NurbsDirection {
+        /// "u" or "v".
         dir: &'static str,
+        /// Why that direction was rejected.
         source: GeometryError,
     },
     /// A profile curve that cannot sweep a surface (on the axis, parallel to
