@@ -432,6 +432,95 @@ fn pcurve_edges_are_their_2d_curves_on_the_surface() {
     );
 }
 
+/// A pcurve in a file whose angles are degrees: its u on a cylinder or a
+/// cone is in degrees (2D lines of constant v from u = 0° to 90°; the
+/// cone's v is the height above its placement), on a torus both parameters
+/// are; evaluated as the same 3D curves as in radians.
+#[test]
+fn pcurves_in_degrees_on_a_cylinder_and_a_torus() {
+    let mut w = Writer::new();
+    let rad = w.add("( NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.) )");
+    let pam = w.add(format!(
+        "PLANE_ANGLE_MEASURE_WITH_UNIT(PLANE_ANGLE_MEASURE(0.0174532925199433),#{rad})"
+    ));
+    let dims = w.add("DIMENSIONAL_EXPONENTS(0.,0.,0.,0.,0.,0.,0.)");
+    w.add(format!(
+        "( CONVERSION_BASED_UNIT('DEGREE',#{pam}) NAMED_UNIT(#{dims}) PLANE_ANGLE_UNIT() )"
+    ));
+    let ctx2 = w.add("( GEOMETRIC_REPRESENTATION_CONTEXT(2) PARAMETRIC_REPRESENTATION_CONTEXT() REPRESENTATION_CONTEXT('2D','') )");
+    let cax = w.axis([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let cyl = w.add(format!("CYLINDRICAL_SURFACE('',#{cax},2.)"));
+    let tor = w.add(format!("TOROIDAL_SURFACE('',#{cax},3.,1.)"));
+    // radius 1 at the placement, 45°: ρ = 1 + h
+    let cone = w.add(format!("CONICAL_SURFACE('',#{cax},1.,45.)"));
+    let mut edges = Vec::new();
+    // (surface, 2D start, 2D direction, vertices)
+    let cases = [
+        (
+            cyl,
+            [0.0, 0.5],
+            [1.0, 0.0],
+            [2.0, 0.0, 0.5],
+            [0.0, 2.0, 0.5],
+        ),
+        // the torus's outer equator (v = 0) from u = 0° to 90°
+        (
+            tor,
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [4.0, 0.0, 0.0],
+            [0.0, 4.0, 0.0],
+        ),
+        // a tube circle (u = 0) from v = 0° to 90°
+        (
+            tor,
+            [0.0, 0.0],
+            [0.0, 1.0],
+            [4.0, 0.0, 0.0],
+            [3.0, 0.0, 1.0],
+        ),
+        // the cone's circle at height 1 (ρ = 2), u from 0° to 90°
+        (
+            cone,
+            [0.0, 1.0],
+            [1.0, 0.0],
+            [2.0, 0.0, 1.0],
+            [0.0, 2.0, 1.0],
+        ),
+    ];
+    for (surf, p, d, a, b) in cases {
+        let lo = w.point2(p);
+        let ld = w.add(format!("DIRECTION('',({:?},{:?}))", d[0], d[1]));
+        let lv = w.add(format!("VECTOR('',#{ld},1.)"));
+        let l2 = w.add(format!("LINE('',#{lo},#{lv})"));
+        let dr = w.add(format!("DEFINITIONAL_REPRESENTATION('',(#{l2}),#{ctx2})"));
+        let pc = w.add(format!("PCURVE('',#{surf},#{dr})"));
+        let (va, vb) = (w.vertex(a), w.vertex(b));
+        edges.push((w.edge(va, vb, pc), a, b));
+    }
+    let s = read(&w, "degrees");
+    for (k, (id, a, b)) in edges.into_iter().enumerate() {
+        let m = s
+            .info
+            .edge_ids
+            .iter()
+            .position(|&x| x == id as u64)
+            .unwrap();
+        let c = &s.model.edges[m];
+        assert!(close(c.curve.point(c.t0), a, 1e-9), "case {k}");
+        assert!(close(c.curve.point(c.t1), b, 1e-9), "case {k}");
+        let mid = c.curve.point(0.5 * (c.t0 + c.t1));
+        let want = match k {
+            0 => [2.0f64.sqrt(), 2.0f64.sqrt(), 0.5],
+            1 => [8.0f64.sqrt(), 8.0f64.sqrt(), 0.0],
+            2 => [3.0 + 0.5f64.sqrt(), 0.0, 0.5f64.sqrt()],
+            _ => [2.0f64.sqrt(), 2.0f64.sqrt(), 1.0],
+        };
+        assert!(close(mid, want, 1e-9), "case {k}: {mid:?}");
+        check_derivatives(c.curve.as_ref(), "pcurve in degrees");
+    }
+}
+
 /// Writes the cube [0, 2]³ as a FACETED_BREP of POLY_LOOPs: its faces as
 /// FACE_SURFACEs on planes, or (`bare`) as FACEs without geometry.
 fn faceted_cube(bare: bool) -> String {

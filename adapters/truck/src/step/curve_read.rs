@@ -26,9 +26,13 @@ impl<'a> Geo<'a> {
     /// The reader of a pcurve's parameter-space geometry (2D, unscaled,
     /// unmoved).
     fn flat_reader(&self) -> Geo<'a> {
+        let g = self.unplaced();
         Geo {
             flat: true,
-            ..self.unplaced()
+            // unbounded 2D lines span the part, and a full turn of an
+            // angle parameter (in the file's angle unit) when that is more
+            extent: g.extent.max(TAU / self.angle),
+            ..g
         }
     }
 
@@ -160,7 +164,9 @@ impl<'a> Geo<'a> {
                 curve,
                 a: lo,
                 b: hi,
-                reversed: rev != !same,
+                // run backwards when exactly one of the trim and the
+                // segment's same_sense says so
+                reversed: rev == same,
             });
         }
         let c = Composite::new(out).ok_or_else(|| self.t.err(id, "an empty segment"))?;
@@ -317,7 +323,7 @@ impl<'a> Geo<'a> {
             base = self.t.r(base, &b[1], "basis_surface")?;
         }
         let be = self.t.get(base)?;
-        let (su, sv) = if be.is("PLANE")
+        let (su, sv, ov) = if be.is("PLANE")
             || [
                 "B_SPLINE_SURFACE_WITH_KNOTS",
                 "B_SPLINE_SURFACE",
@@ -328,26 +334,40 @@ impl<'a> Geo<'a> {
             .iter()
             .any(|n| be.is(n))
         {
-            (1.0, 1.0)
+            (1.0, 1.0, 0.0)
         } else if be.is("CYLINDRICAL_SURFACE") {
-            (self.angle, 1.0)
-        } else if be.is("SPHERICAL_SURFACE") {
-            (self.angle, self.angle)
+            (self.angle, 1.0, 0.0)
+        } else if be.is("SPHERICAL_SURFACE") || (be.is("TOROIDAL_SURFACE") && self.ring_torus(base))
+        {
+            (self.angle, self.angle, 0.0)
+        } else if be.is("CONICAL_SURFACE") {
+            // the file's v is the height above the placement, the cone's
+            // the slant distance from its apex (at height −R / tan α)
+            let a = self.t.args(base, &["CONICAL_SURFACE"], 4)?;
+            let r = self.t.real(base, &a[2], "radius")?;
+            let alpha = self.t.real(base, &a[3], "semi_angle")? * self.angle;
+            (self.angle, 1.0 / alpha.cos(), r / alpha.sin())
         } else {
             return Err(self.t.err(
                 id,
                 format!(
                     "a PCURVE on a {} is not supported (supported: PLANE, CYLINDRICAL_SURFACE, \
-                     SPHERICAL_SURFACE, B-spline surfaces)",
+                     CONICAL_SURFACE, SPHERICAL_SURFACE, TOROIDAL_SURFACE with major radius > \
+                     minor, B-spline surfaces)",
                     self.t.type_name(base)
                 ),
             ));
         };
         let surface = self.unplaced().surface(base)?.surface;
-        let pcurve: Arc<dyn Curve> = if su == 1.0 && sv == 1.0 {
+        let pcurve: Arc<dyn Curve> = if su == 1.0 && sv == 1.0 && ov == 0.0 {
             c2
         } else {
-            Arc::new(ParamScaled { inner: c2, su, sv })
+            Arc::new(ParamScaled {
+                inner: c2,
+                su,
+                sv,
+                ov,
+            })
         };
         Ok(Arc::new(Moved {
             inner: Arc::new(CurveOnSurface { surface, pcurve }),
@@ -356,9 +376,24 @@ impl<'a> Geo<'a> {
         }))
     }
 
+    /// Whether TOROIDAL_SURFACE `id` is a ring torus (major radius > minor:
+    /// read as a [`bubblemesh_analytic::Torus`], parametrized as the file's).
+    fn ring_torus(&self, id: u64) -> bool {
+        let Ok(a) = self.t.args(id, &["TOROIDAL_SURFACE"], 4) else {
+            return false;
+        };
+        match (
+            self.t.real(id, &a[2], "major_radius"),
+            self.t.real(id, &a[3], "minor_radius"),
+        ) {
+            (Ok(big), Ok(small)) => big > small && small > 0.0,
+            _ => false,
+        }
+    }
+
     /// The first of a SURFACE_CURVE's associated PCURVEs that reads, as its
     /// 3D curve.
-    pub(super) fn from_pcurves(
+    pub(super) fn via_pcurves(
         &self,
         id: u64,
         assoc: Option<&Parameter>,

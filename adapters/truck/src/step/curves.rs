@@ -235,13 +235,15 @@ impl Curve for Ranged {
     }
 }
 
-/// A parameter-space curve with its coordinates scaled: (su x, sv y, z)
-/// (a pcurve written in degrees on a surface whose angles are radians).
+/// A parameter-space curve with its coordinates mapped affinely: (su x,
+/// sv y + ov, z) (a pcurve written in degrees on a surface whose angles are
+/// radians; a cone's height from its placement as slant from its apex).
 #[derive(Debug, Clone)]
 pub struct ParamScaled {
     pub inner: Arc<dyn Curve>,
     pub su: f64,
     pub sv: f64,
+    pub ov: f64,
 }
 
 impl ParamScaled {
@@ -255,7 +257,7 @@ impl Curve for ParamScaled {
         self.inner.interval()
     }
     fn point(&self, t: f64) -> P3 {
-        P3::from(self.map(self.inner.point(t).coords))
+        P3::from(self.map(self.inner.point(t).coords) + V3::new(0.0, self.ov, 0.0))
     }
     fn d1(&self, t: f64) -> V3 {
         self.map(self.inner.d1(t))

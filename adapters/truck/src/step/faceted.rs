@@ -72,7 +72,9 @@ pub(crate) fn expand(t: &mut Table) -> Result<(), StepError> {
     }
     let next = t.ents.keys().max().copied().unwrap_or(0) + 1;
     // the polygons, read before anything changes
-    let mut polys: Vec<(u64, Vec<(u64, [f64; 3])>)> = Vec::with_capacity(loops.len());
+    // (loop, its points: (CARTESIAN_POINT, coordinates))
+    type Polygon = (u64, Vec<(u64, [f64; 3])>);
+    let mut polys: Vec<Polygon> = Vec::with_capacity(loops.len());
     for &lp in &loops {
         let a = t.args(lp, &["POLY_LOOP"], 2)?;
         let ids = t.refs(lp, &a[1], "polygon")?;
@@ -256,11 +258,18 @@ pub(crate) fn expand(t: &mut Table) -> Result<(), StepError> {
 /// boundary one closed `EDGE_CURVE` on the curve, its vertex where the curve
 /// starts (an `OUTER_BOUNDARY_CURVE` the outer bound). Added under new ids,
 /// in an `OPEN_SHELL` of their own.
-pub(crate) fn expand_curve_bounded(t: &mut Table) -> Result<(), StepError> {
+///
+/// One that cannot be read fails the read when the file has no other faces;
+/// beside other faces it is skipped, and the returned notes say why.
+pub(crate) fn expand_curve_bounded(t: &mut Table) -> Result<Vec<String>, StepError> {
+    let mut notes = Vec::new();
     let cbs = t.ids_of("CURVE_BOUNDED_SURFACE");
     if cbs.is_empty() {
-        return Ok(());
+        return Ok(notes);
     }
+    let other_faces = !t.ids_of("ADVANCED_FACE").is_empty()
+        || !t.ids_of("FACE_SURFACE").is_empty()
+        || !t.ids_of("FACE").is_empty();
     // surfaces some face already uses
     let mut used = std::collections::HashSet::new();
     for f in t
@@ -282,47 +291,18 @@ pub(crate) fn expand_curve_bounded(t: &mut Table) -> Result<(), StepError> {
             if used.contains(&id) {
                 continue;
             }
-            let a = t.args(id, &["CURVE_BOUNDED_SURFACE"], 4)?;
-            let basis = t.r(id, &a[1], "basis_surface")?;
-            let implicit = t.boolean(id, &a[3], "implicit_outer")?;
-            if implicit {
-                return Err(t.err(
-                    id,
-                    "implicit_outer (the basis surface's own edges as the outer boundary) \
-                     is not supported",
-                ));
+            match boundaries(t, &geo, id) {
+                Ok(b) => todo.push(b),
+                Err(e) if other_faces => notes.push(format!(
+                    "#{id} CURVE_BOUNDED_SURFACE: skipped, it cannot be read as a face: {}",
+                    e.reason
+                )),
+                Err(e) => return Err(e),
             }
-            let mut bounds = Vec::new();
-            for b in t.refs(id, &a[2], "boundaries")? {
-                let outer = t.get(b)?.is("OUTER_BOUNDARY_CURVE");
-                let c = match geo.curve(b)? {
-                    super::geometry::CurveGeom::General(c) => c,
-                    super::geometry::CurveGeom::Spline(n) => n,
-                    _ => return Err(t.err(b, "a boundary must be a bounded curve")),
-                };
-                let (lo, hi) = c.interval();
-                let (p, q) = (c.point(lo), c.point(hi));
-                let gap = (p - q).norm();
-                if gap > 1e-4 * geo.extent.max(1e-300) && gap > 10.0 * geo.uncertainty {
-                    return Err(t.err(
-                        b,
-                        format!("a boundary curve that does not close (its ends {gap:.3e} apart)"),
-                    ));
-                }
-                bounds.push((b, outer, [p.x, p.y, p.z]));
-            }
-            if bounds.is_empty() {
-                return Err(t.err(id, "no boundaries"));
-            }
-            // without an OUTER_BOUNDARY_CURVE the first boundary is the outer one
-            if !bounds.iter().any(|b| b.1) {
-                bounds[0].1 = true;
-            }
-            todo.push((id, basis, bounds));
         }
     }
     if todo.is_empty() {
-        return Ok(());
+        return Ok(notes);
     }
     let next = t.ents.keys().max().copied().unwrap_or(0) + 1;
     let mut w = Writer { t, next };
@@ -388,5 +368,52 @@ pub(crate) fn expand_curve_bounded(t: &mut Table) -> Result<(), StepError> {
             Parameter::List(faces.into_iter().map(rf).collect()),
         ],
     ));
-    Ok(())
+    Ok(notes)
+}
+
+/// A CURVE_BOUNDED_SURFACE's (id, basis surface, boundaries: curve, whether
+/// outer, start point).
+#[allow(clippy::type_complexity)]
+fn boundaries(
+    t: &Table,
+    geo: &super::geometry::Geo,
+    id: u64,
+) -> Result<(u64, u64, Vec<(u64, bool, [f64; 3])>), StepError> {
+    let a = t.args(id, &["CURVE_BOUNDED_SURFACE"], 4)?;
+    let basis = t.r(id, &a[1], "basis_surface")?;
+    let implicit = t.boolean(id, &a[3], "implicit_outer")?;
+    if implicit {
+        return Err(t.err(
+            id,
+            "implicit_outer (the basis surface's own edges as the outer boundary) \
+             is not supported",
+        ));
+    }
+    let mut bounds = Vec::new();
+    for b in t.refs(id, &a[2], "boundaries")? {
+        let outer = t.get(b)?.is("OUTER_BOUNDARY_CURVE");
+        let c = match geo.curve(b)? {
+            super::geometry::CurveGeom::General(c) => c,
+            super::geometry::CurveGeom::Spline(n) => n,
+            _ => return Err(t.err(b, "a boundary must be a bounded curve")),
+        };
+        let (lo, hi) = c.interval();
+        let (p, q) = (c.point(lo), c.point(hi));
+        let gap = (p - q).norm();
+        if gap > 1e-4 * geo.extent.max(1e-300) && gap > 10.0 * geo.uncertainty {
+            return Err(t.err(
+                b,
+                format!("a boundary curve that does not close (its ends {gap:.3e} apart)"),
+            ));
+        }
+        bounds.push((b, outer, [p.x, p.y, p.z]));
+    }
+    if bounds.is_empty() {
+        return Err(t.err(id, "no boundaries"));
+    }
+    // without an OUTER_BOUNDARY_CURVE the first boundary is the outer one
+    if !bounds.iter().any(|b| b.1) {
+        bounds[0].1 = true;
+    }
+    Ok((id, basis, bounds))
 }

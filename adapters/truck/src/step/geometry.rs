@@ -439,7 +439,7 @@ impl<'a> Geo<'a> {
             return match c3 {
                 Ok(c) => Ok(c),
                 // the 3D curve cannot be read: the pcurves can stand in
-                Err(err) => self.from_pcurves(id, a.get(2), depth).ok_or(err),
+                Err(err) => self.via_pcurves(id, a.get(2), depth).ok_or(err),
             };
         }
         if e.is("PARABOLA") {

@@ -230,7 +230,7 @@ pub fn parse_step_with(
         }
         let mut table = table::Table::new(source_name, instances)?;
         faceted::expand(&mut table)?;
-        faceted::expand_curve_bounded(&mut table)?;
+        let notes = faceted::expand_curve_bounded(&mut table)?;
         let file_unit = units::length_unit(&table);
         let scale = match (&options.unit, &file_unit) {
             (None, _) => 1.0,
@@ -248,6 +248,7 @@ pub fn parse_step_with(
         let mut m = build::build(&table, scale)?;
         m.info.length_unit = options.unit.clone().or_else(|| file_unit.clone());
         m.info.file_length_unit = file_unit;
+        m.info.notes = notes;
         wireframes(&table, &mut m)?;
         Ok(m)
     });
