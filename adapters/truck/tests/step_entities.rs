@@ -211,12 +211,12 @@ fn parabola_edge_ends_at_its_vertices() {
 /// area of a parallel body, πab + L d + πd².
 #[test]
 fn offset_curves_read_exactly_or_with_derivatives() {
-    // an offset line: LINE y = 0 offset by 0.5 with V = +z lies at y = −0.5
-    // (C' × V = x × z = −y)
+    // an offset line: LINE y = 0 offset by 0.5 with V = +z lies at y = 0.5
+    // (V × C' = z × x = y, ISO 10303-42 as OpenCascade reads it)
     {
         let mut w = Writer::new();
-        let va = w.vertex([0.0, -0.5, 0.0]);
-        let vb = w.vertex([2.0, -0.5, 0.0]);
+        let va = w.vertex([0.0, 0.5, 0.0]);
+        let vb = w.vertex([2.0, 0.5, 0.0]);
         let ln = w.line([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
         let z = w.dir([0.0, 0.0, 1.0]);
         let off = w.add(format!("OFFSET_CURVE_3D('',#{ln},0.5,.F.,#{z})"));
@@ -225,10 +225,11 @@ fn offset_curves_read_exactly_or_with_derivatives() {
         let e = &s.model.edges[0];
         for k in 0..=4 {
             let p = e.curve.point(e.t0 + (e.t1 - e.t0) * k as f64 / 4.0);
-            assert!((p.y + 0.5).abs() < 1e-12 && p.z.abs() < 1e-12, "{p:?}");
+            assert!((p.y - 0.5).abs() < 1e-12 && p.z.abs() < 1e-12, "{p:?}");
         }
     }
-    // circle r = 1 offset by 0.5 about its axis: r = 1.5; ellipse 2 × 1
+    // circle r = 1 offset by 0.5 with V = −z (outward: V × C' points away
+    // from the centre): r = 1.5; ellipse 2 × 1 likewise
     let ell_perimeter = 9.688_448_220_547_675;
     for (basis, want_area, what) in [
         ("circle", std::f64::consts::PI * 1.5 * 1.5, "offset circle"),
@@ -245,7 +246,7 @@ fn offset_curves_read_exactly_or_with_derivatives() {
         } else {
             (w.add(format!("ELLIPSE('',#{ax},2.,1.)")), [2.5, 0.0, 0.0])
         };
-        let z = w.dir([0.0, 0.0, 1.0]);
+        let z = w.dir([0.0, 0.0, -1.0]);
         let off = w.add(format!("OFFSET_CURVE_3D('',#{c},0.5,.F.,#{z})"));
         let v = w.vertex(start);
         let e = w.edge(v, v, off);

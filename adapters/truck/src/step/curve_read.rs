@@ -102,8 +102,8 @@ impl<'a> Geo<'a> {
         let g = self.curve_depth(basis, depth + 1)?;
         match g {
             CurveGeom::Line { p, d: dl } => {
-                let n = dl
-                    .cross(&v)
+                let n = v
+                    .cross(&dl)
                     .try_normalize(1e-12)
                     .ok_or_else(|| self.t.err(id, "its LINE runs along its ref_direction"))?;
                 Ok(CurveGeom::Line {
@@ -112,8 +112,8 @@ impl<'a> Geo<'a> {
                 })
             }
             CurveGeom::Circle { pl, r } if pl.z.cross(&v).norm() <= 1e-12 => {
-                // C' × z points away from the centre of a counter-clockwise circle
-                let r2 = r + d * pl.z.dot(&v).signum();
+                // z × C' points to the centre of a counter-clockwise circle
+                let r2 = r - d * pl.z.dot(&v).signum();
                 if !(r2 > 0.0) {
                     return Err(self.t.err(
                         id,
@@ -126,7 +126,7 @@ impl<'a> Geo<'a> {
                 let c = self.finite(basis, &g)?;
                 let (lo, hi) = c.interval();
                 let t = 0.5 * (lo + hi);
-                if c.d1(t).cross(&v).norm() <= 1e-12 * c.d1(t).norm() {
+                if v.cross(&c.d1(t)).norm() <= 1e-12 * c.d1(t).norm() {
                     return Err(self.t.err(id, "its basis runs along its ref_direction"));
                 }
                 Ok(CurveGeom::General(Arc::new(OffsetCurve { basis: c, d, v })))

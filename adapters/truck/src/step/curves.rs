@@ -48,9 +48,10 @@ impl Curve for Parabola {
     }
 }
 
-/// ISO 10303-42 `OFFSET_CURVE_3D` (the convention OpenCascade reads it
-/// with): O(t) = C(t) + d N(t), N = (C' × V) / |C' × V| for the reference
-/// direction V. Its parametrization is the basis's.
+/// ISO 10303-42 `OFFSET_CURVE_3D`: O(t) = C(t) + d N(t),
+/// N = (V × C') / |V × C'| for the reference direction V (as OpenCascade
+/// reads it: its `Geom_OffsetCurve` along C' × V, by −d). Its
+/// parametrization is the basis's.
 #[derive(Debug, Clone)]
 pub struct OffsetCurve {
     pub basis: Arc<dyn Curve>,
@@ -72,9 +73,9 @@ impl OffsetCurve {
     }
     /// N, N', N'' at t.
     fn frame(&self, t: f64) -> (V3, V3, V3) {
-        let w = self.basis.d1(t).cross(&self.v);
-        let w1 = self.basis.d2(t).cross(&self.v);
-        let w2 = self.d3(t).cross(&self.v);
+        let w = self.v.cross(&self.basis.d1(t));
+        let w1 = self.v.cross(&self.basis.d2(t));
+        let w2 = self.v.cross(&self.d3(t));
         let l = w.norm();
         if !(l > 0.0) {
             return (V3::zeros(), V3::zeros(), V3::zeros());

@@ -40,8 +40,9 @@
 //!   its basis surface, each boundary curve one closed edge; used as a
 //!   face's geometry, as its basis surface;
 //! - curves: besides the conics, lines and B-splines, `PARABOLA`,
-//!   `OFFSET_CURVE_3D` (a line or a circle offset in its plane exactly, other
-//!   bases evaluated), `COMPOSITE_CURVE` (its segments joined, trimmed
+//!   `OFFSET_CURVE_3D` (along ref_direction × tangent, as OpenCascade reads
+//!   it; a line or a circle offset in its plane exactly, other bases
+//!   evaluated), `COMPOSITE_CURVE` (its segments joined, trimmed
 //!   curves by their trims), and `PCURVE`s (the 2D curve of its
 //!   `DEFINITIONAL_REPRESENTATION` evaluated on a plane, cylinder, sphere or
 //!   B-spline surface) where an edge or a `SURFACE_CURVE` whose 3D curve
