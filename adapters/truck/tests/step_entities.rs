@@ -288,7 +288,7 @@ fn offset_curves_read_exactly_or_with_derivatives() {
 /// A COMPOSITE_CURVE of trimmed lines (by parameter, one against its sense)
 /// and a trimmed circle (by points, in degrees), closed into a stadium
 /// half: two edges on it (the second across the curve's start), inside a
-/// SURFACE_CURVE; the face has area 4 + π/2 and its edges meet.
+/// SURFACE_CURVE and a TRIMMED_CURVE; the face has area 4 + π/2.
 #[test]
 fn composite_curve_edges_follow_their_segments() {
     let mut w = Writer::new();
@@ -336,7 +336,12 @@ fn composite_curve_edges_follow_their_segments() {
     let va = w.vertex([-1.0, -1.0, 0.0]);
     let vb = w.vertex([1.0, 1.0, 0.0]);
     let e1 = w.edge(va, vb, sc);
-    let e2 = w.edge(vb, va, sc);
+    // the second edge on a TRIMMED_CURVE of the composite (by its points)
+    let (ta, tb) = (w.point([1.0, 1.0, 0.0]), w.point([-1.0, -1.0, 0.0]));
+    let tc = w.add(format!(
+        "TRIMMED_CURVE('',#{comp},(#{ta}),(#{tb}),.T.,.CARTESIAN.)"
+    ));
+    let e2 = w.edge(vb, va, tc);
     let f = w.face(pl, &[(e1, true), (e2, true)]);
     w.shell(&[f]);
     let s = read(&w, "composite");
@@ -786,4 +791,32 @@ fn realstep_files_convert_to_millimetres() {
     }
     eprintln!("{}", converted.join("\n"));
     assert!(converted.len() >= 6, "{converted:?}");
+}
+
+/// The realstep files with a GEOMETRIC_CURVE_SET beside their B-rep read,
+/// the set noted as skipped wireframe.
+#[test]
+fn realstep_wireframe_sets_are_noted() {
+    let dir = realstep_dir();
+    if !std::path::Path::new(&dir).is_dir() {
+        eprintln!("skipped: {dir} not found");
+        return;
+    }
+    for f in [
+        "as_0051_flipping_joystick_assembly.stp",
+        "pyocc_face_recognition_sample_part.stp",
+        "pyocc_splinecage.stp",
+    ] {
+        let s =
+            read_step(&std::path::Path::new(&dir).join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert!(!s.model.faces.is_empty(), "{f}");
+        assert!(
+            s.info
+                .notes
+                .iter()
+                .any(|n| n.contains("GEOMETRIC_CURVE_SET") && n.contains("skipped")),
+            "{f}: {:?}",
+            s.info.notes
+        );
+    }
 }
