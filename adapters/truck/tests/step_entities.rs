@@ -531,6 +531,12 @@ fn pcurves_in_degrees_on_a_cylinder_and_a_torus() {
 /// FACE_SURFACEs on planes, or (`bare`) as FACEs without geometry.
 fn faceted_cube(bare: bool) -> String {
     let mut w = Writer::new();
+    faceted_cube_into(&mut w, bare);
+    w.text()
+}
+
+/// Adds the FACETED_BREP cube of [`faceted_cube`] to `w`: returns its id.
+fn faceted_cube_into(w: &mut Writer, bare: bool) -> usize {
     let corner = |i: usize| [0, 1, 2].map(|k| if i >> k & 1 == 1 { 2.0 } else { 0.0 });
     let pts: Vec<usize> = (0..8).map(|i| w.point(corner(i))).collect();
     let mut faces = Vec::new();
@@ -562,8 +568,34 @@ fn faceted_cube(bare: bool) -> String {
         }
     }
     let sh = w.add(format!("CLOSED_SHELL('',({}))", faces.join(",")));
-    w.add(format!("FACETED_BREP('cube',#{sh})"));
-    w.text()
+    w.add(format!("FACETED_BREP('cube',#{sh})"))
+}
+
+/// A FACETED_BREP as a product's shape (FACETED_BREP_SHAPE_REPRESENTATION)
+/// is its volume, named after the product.
+#[test]
+fn faceted_brep_of_a_product_is_its_named_volume() {
+    let mut w = Writer::new();
+    let app = w.add("APPLICATION_CONTEXT('')");
+    let ctx = w.context(".MILLI.");
+    let origin = w.axis([0.0; 3], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+    let brep = faceted_cube_into(&mut w, true);
+    let pc = w.add(format!("PRODUCT_CONTEXT('',#{app},'mechanical')"));
+    let p = w.add(format!("PRODUCT('dice','dice','',(#{pc}))"));
+    let f = w.add(format!("PRODUCT_DEFINITION_FORMATION('','',#{p})"));
+    let c = w.add(format!(
+        "PRODUCT_DEFINITION_CONTEXT('part definition',#{app},'design')"
+    ));
+    let pd = w.add(format!("PRODUCT_DEFINITION('design','',#{f},#{c})"));
+    let rep = w.add(format!(
+        "FACETED_BREP_SHAPE_REPRESENTATION('',(#{brep},#{origin}),#{ctx})"
+    ));
+    let pds = w.add(format!("PRODUCT_DEFINITION_SHAPE('','',#{pd})"));
+    w.add(format!("SHAPE_DEFINITION_REPRESENTATION(#{pds},#{rep})"));
+    let s = read(&w, "dice");
+    assert_eq!((s.model.faces.len(), s.model.volumes.len()), (6, 1));
+    assert_eq!(s.model.volumes[0].name.as_deref(), Some("dice"));
+    assert_eq!(s.model.volumes[0].faces.len(), 6);
 }
 
 /// A FACETED_BREP cube (faces on planes, or bare FACEs whose plane is
