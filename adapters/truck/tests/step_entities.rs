@@ -344,8 +344,29 @@ fn composite_curve_edges_follow_their_segments() {
     let e2 = w.edge(vb, va, tc);
     let f = w.face(pl, &[(e1, true), (e2, true)]);
     w.shell(&[f]);
+    // the composite's parameter is the file's (ISO 10303-42): the bottom
+    // over [0, 2], the half circle over [2, 182] degrees; a TRIMMED_CURVE
+    // of it from 2 to 92 is the quarter circle from (1, −1) to (2, 0)
+    let tq = w.add(format!(
+        "TRIMMED_CURVE('',#{comp},(PARAMETER_VALUE(2.)),(PARAMETER_VALUE(92.)),.T.,.PARAMETER.)"
+    ));
+    let (q0, q1) = (w.vertex([1.0, -1.0, 0.0]), w.vertex([2.0, 0.0, 0.0]));
+    let eq = w.edge(q0, q1, tq);
     let s = read(&w, "composite");
-    assert_eq!((s.model.edges.len(), s.model.faces.len()), (2, 1));
+    assert_eq!((s.model.edges.len(), s.model.faces.len()), (3, 1));
+    let k = s
+        .info
+        .edge_ids
+        .iter()
+        .position(|&x| x == eq as u64)
+        .unwrap();
+    let q = &s.model.edges[k];
+    assert!(close(q.curve.point(q.t0), [1.0, -1.0, 0.0], 1e-9));
+    assert!(close(q.curve.point(q.t1), [2.0, 0.0, 0.0], 1e-9));
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let m = q.curve.point(0.5 * (q.t0 + q.t1));
+    assert!(close(m, [1.0 + h, -h, 0.0], 1e-9), "{m:?}");
+    assert!((q.t0 - 2.0).abs() < 1e-9 && (q.t1 - 92.0).abs() < 1e-9);
     let e = &s.model.edges[0];
     assert!(close(e.curve.point(e.t0), [-1.0, -1.0, 0.0], 1e-9));
     assert!(close(e.curve.point(e.t1), [1.0, 1.0, 0.0], 1e-9));

@@ -18,9 +18,10 @@ use super::geometry::{CurveGeom, Geo, Rigid};
 use super::StepError;
 use crate::curve_tools::closest_parameter;
 
-/// A bounded piece of a curve: the curve, `[a, b]` of its parameter, and
-/// whether it runs from b to a.
-type Piece = (Arc<dyn Curve>, f64, f64, bool);
+/// A bounded piece of a curve: the curve, `[a, b]` of its parameter,
+/// whether it runs from b to a, and the curve's parameter per file
+/// parameter (the angle unit for conics, else 1).
+type Piece = (Arc<dyn Curve>, f64, f64, bool, f64);
 
 impl<'a> Geo<'a> {
     /// The reader of a pcurve's parameter-space geometry (2D, unscaled,
@@ -158,8 +159,19 @@ impl<'a> Geo<'a> {
                 3,
             )?;
             let same = self.t.boolean(s, &sa[1], "same_sense")?;
-            let (curve, lo, hi, rev) =
+            let (curve, lo, hi, rev, k) =
                 self.piece(self.t.r(s, &sa[2], "parent_curve")?, depth + 1)?;
+            // a reparametrised segment has the parameter length it states
+            let k = match sa.get(3) {
+                Some(p) if self.t.get(s)?.is("REPARAMETRISED_COMPOSITE_CURVE_SEGMENT") => {
+                    let l = self.t.real(s, p, "param_length")?;
+                    if !(l > 0.0) {
+                        return Err(self.t.err(s, format!("param_length {l} is not positive")));
+                    }
+                    (hi - lo) / l
+                }
+                _ => k,
+            };
             out.push(Segment {
                 curve,
                 a: lo,
@@ -167,6 +179,7 @@ impl<'a> Geo<'a> {
                 // run backwards when exactly one of the trim and the
                 // segment's same_sense says so
                 reversed: rev == same,
+                k,
             });
         }
         let c = Composite::new(out).ok_or_else(|| self.t.err(id, "an empty segment"))?;
@@ -209,9 +222,10 @@ impl<'a> Geo<'a> {
                 Err(self.t.err(id, "an unbounded curve as a segment"))
             }
             g => {
+                let conic = matches!(g, CurveGeom::Circle { .. } | CurveGeom::Ellipse { .. });
                 let c = self.finite(id, &g)?;
                 let (lo, hi) = c.interval();
-                Ok((c, lo, hi, false))
+                Ok((c, lo, hi, false, if conic { self.angle } else { 1.0 }))
             }
         }
     }
@@ -282,9 +296,10 @@ impl<'a> Geo<'a> {
                 }
             }
         }
+        let k = if conic { self.angle } else { 1.0 };
         match sense {
-            true if t2 > t1 => Ok((c, t1, t2, false)),
-            false if t1 > t2 => Ok((c, t2, t1, true)),
+            true if t2 > t1 => Ok((c, t1, t2, false, k)),
+            false if t1 > t2 => Ok((c, t2, t1, true, k)),
             _ => Err(self.t.err(
                 id,
                 format!("its trims (t = {t1} then {t2}) do not run along sense_agreement {sense}"),

@@ -106,19 +106,25 @@ impl Curve for OffsetCurve {
 }
 
 /// One segment of a [`Composite`]: `curve` over `[a, b]` of its own
-/// parameter, run backwards when `reversed`.
+/// parameter, run backwards when `reversed`, over `(b − a) / k` of the
+/// composite's parameter (`k`: own parameter per composite parameter; 1
+/// but for conics in a file whose angles are degrees, and reparametrised
+/// segments).
 #[derive(Debug, Clone)]
 pub struct Segment {
     pub curve: Arc<dyn Curve>,
     pub a: f64,
     pub b: f64,
     pub reversed: bool,
+    pub k: f64,
 }
 
-/// Segments joined end to end: the composite parameter runs over
-/// `[0, Σ (b − a)]`, segment k over `[s_k, s_k + b_k − a_k]` with its own
-/// parameter shifted (or mirrored for a reversed segment). Continuous where
-/// the segments meet; derivatives are those of the segment (one-sided at a
+/// Segments joined end to end (ISO 10303-42 `composite_curve`): the
+/// composite parameter runs over `[0, Σ l_i]`, l_i = (b_i − a_i) / k_i the
+/// segment's parameter length in the file's terms, segment i over
+/// `[s_i, s_i + l_i]` with its own parameter a_i + k_i (t − s_i) (or
+/// b_i − k_i (t − s_i) for a reversed segment). Continuous where the
+/// segments meet; derivatives are those of the segment (one-sided at a
 /// joint).
 #[derive(Debug, Clone)]
 pub struct Composite {
@@ -130,14 +136,14 @@ pub struct Composite {
 impl Composite {
     /// `None` when there are no segments or one has `b ≤ a`.
     pub fn new(segs: Vec<Segment>) -> Option<Self> {
-        if segs.is_empty() || segs.iter().any(|s| !(s.b > s.a)) {
+        if segs.is_empty() || segs.iter().any(|s| !(s.b > s.a) || !(s.k > 0.0)) {
             return None;
         }
         let mut starts = Vec::with_capacity(segs.len());
         let mut s = 0.0;
         for g in &segs {
             starts.push(s);
-            s += g.b - g.a;
+            s += (g.b - g.a) / g.k;
         }
         Some(Composite {
             segs,
@@ -153,19 +159,19 @@ impl Composite {
     pub fn start_of(&self, k: usize) -> f64 {
         self.starts[k]
     }
-    /// The segment at composite parameter `t` and the segment's own
-    /// parameter there, with the sign of d(own)/dt.
+    /// The segment at composite parameter `t`, the segment's own parameter
+    /// there, and d(own)/dt.
     fn locate(&self, t: f64) -> (&Segment, f64, f64) {
         let k = match self.starts.partition_point(|&s| s <= t) {
             0 => 0,
             k => k - 1,
         };
         let g = &self.segs[k];
-        let local = (t - self.starts[k]).clamp(0.0, g.b - g.a);
+        let local = ((t - self.starts[k]) * g.k).clamp(0.0, g.b - g.a);
         if g.reversed {
-            (g, g.b - local, -1.0)
+            (g, g.b - local, -g.k)
         } else {
-            (g, g.a + local, 1.0)
+            (g, g.a + local, g.k)
         }
     }
 }
@@ -183,8 +189,8 @@ impl Curve for Composite {
         g.curve.d1(u) * s
     }
     fn d2(&self, t: f64) -> V3 {
-        let (g, u, _) = self.locate(t);
-        g.curve.d2(u)
+        let (g, u, s) = self.locate(t);
+        g.curve.d2(u) * (s * s)
     }
 }
 
@@ -370,18 +376,22 @@ pub(crate) mod tests {
                 a: 0.0,
                 b: 1.0,
                 reversed: false,
+                k: 1.0,
             },
             Segment {
                 curve: c,
                 a: -std::f64::consts::FRAC_PI_2,
                 b: std::f64::consts::FRAC_PI_2,
                 reversed: false,
+                // as if in degrees
+                k: std::f64::consts::PI / 180.0,
             },
             Segment {
                 curve: l,
                 a: 0.25,
                 b: 1.0,
                 reversed: true,
+                k: 0.5,
             },
         ])
         .unwrap();
