@@ -770,13 +770,11 @@ impl<'a> Geo<'a> {
                 )
                 .map_err(bad)?,
             ),
-            CurveGeom::Hyperbola { .. } => {
-                return Err(self
-                    .t
-                    .err(id, "a HYPERBOLA as a swept profile is not supported"))
-            }
             CurveGeom::Spline(n) => n,
-            g @ (CurveGeom::Parabola { .. } | CurveGeom::General(_)) => self.finite(id, &g)?,
+            // over ±4 file extents, like a line
+            g @ (CurveGeom::Hyperbola { .. }
+            | CurveGeom::Parabola { .. }
+            | CurveGeom::General(_)) => self.finite(id, &g)?,
         })
     }
 
@@ -1130,6 +1128,68 @@ mod tests {
             "#1 = OFFSET_SURFACE('',#4,-3.,.F.);\n#4 = SPHERICAL_SURFACE('',#2,2.);\n{place}"
         ));
         assert!(Geo::new(&t).surface(1).is_err());
+    }
+
+    /// A PARABOLA revolved about its axis is the paraboloid 4 f z = ρ², a
+    /// HYPERBOLA the hyperboloid of one sheet ρ²/a² − z²/b² = 1; their
+    /// derivatives agree with finite differences.
+    #[test]
+    fn revolved_parabola_and_hyperbola_are_quadrics() {
+        // the conics in the xz plane: their x axis along z (parabola) or x
+        // (hyperbola), revolved about z
+        let cases: [(&str, &str, fn(&P3) -> f64); 2] = [
+            (
+                "PARABOLA('',#4,0.5)",
+                "#6 = DIRECTION('',(0.,1.,0.));\n#7 = DIRECTION('',(0.,0.,1.));\n",
+                |p| 2.0 * p.z - (p.x * p.x + p.y * p.y),
+            ),
+            (
+                "HYPERBOLA('',#4,1.,2.)",
+                "#6 = DIRECTION('',(0.,-1.,0.));\n#7 = DIRECTION('',(1.,0.,0.));\n",
+                |p| (p.x * p.x + p.y * p.y) - p.z * p.z / 4.0 - 1.0,
+            ),
+        ];
+        for (conic, dirs, residual) in cases {
+            let t = table(&format!(
+                "#1 = SURFACE_OF_REVOLUTION('',#2,#3);\n#2 = {conic};\n\
+                 #3 = AXIS1_PLACEMENT('',#5,#8);\n#4 = AXIS2_PLACEMENT_3D('',#5,#6,#7);\n\
+                 #5 = CARTESIAN_POINT('',(0.,0.,0.));\n{dirs}#8 = DIRECTION('',(0.,0.,1.));\n\
+                 #9 = CARTESIAN_POINT('',(3.,3.,3.));\n"
+            ));
+            let s = Geo::new(&t)
+                .surface(1)
+                .unwrap_or_else(|e| panic!("{conic}: {e}"));
+            let s = s.surface.as_ref();
+            let (u, v) = s.domain();
+            for i in 1..10 {
+                for j in 1..10 {
+                    let (a, b) = (
+                        u[0] + (u[1] - u[0]) * i as f64 / 10.0,
+                        v[0] + (v[1] - v[0]) * j as f64 / 10.0,
+                    );
+                    let p = s.point(a, b);
+                    let r = residual(&p);
+                    assert!(
+                        r.abs() < 1e-6 * (1.0 + p.coords.norm_squared()),
+                        "{conic}: {p:?} off by {r}"
+                    );
+                    let d = s.derivs(a, b);
+                    let h = 1e-6;
+                    let su = (s.point(a + h, b) - s.point(a - h, b)) / (2.0 * h);
+                    let sv = (s.point(a, b + h) - s.point(a, b - h)) / (2.0 * h);
+                    let scale = 1.0 + d.su.norm() + d.sv.norm();
+                    assert!((su - d.su).norm() < 1e-5 * scale, "{conic}: S_u");
+                    assert!((sv - d.sv).norm() < 1e-5 * scale, "{conic}: S_v");
+                    let suu = (s.derivs(a + h, b).su - s.derivs(a - h, b).su) / (2.0 * h);
+                    let svv = (s.derivs(a, b + h).sv - s.derivs(a, b - h).sv) / (2.0 * h);
+                    let suv = (s.derivs(a, b + h).su - s.derivs(a, b - h).su) / (2.0 * h);
+                    let s2 = scale + d.suu.norm() + d.svv.norm();
+                    assert!((suu - d.suu).norm() < 1e-4 * s2, "{conic}: S_uu");
+                    assert!((svv - d.svv).norm() < 1e-4 * s2, "{conic}: S_vv");
+                    assert!((suv - d.suv).norm() < 1e-4 * s2, "{conic}: S_uv");
+                }
+            }
+        }
     }
 
     /// POLYLINE and the B-spline forms with implicit knots evaluate as their
