@@ -693,6 +693,38 @@ fn curve_bounded_surface_is_a_face() {
     assert!((area - 2.0).abs() < 1e-3, "area {area}");
 }
 
+/// A CURVE_BOUNDED_SURFACE that cannot be read as a face (here bounded by
+/// its basis's own edges, `implicit_outer`) is skipped with a note beside
+/// a B-rep, and an error naming it alone.
+#[test]
+fn unreadable_curve_bounded_surface_is_noted_beside_a_brep() {
+    let add = |w: &mut Writer| {
+        let ax = w.axis([0.0, 0.0, 3.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+        let pl = w.add(format!("PLANE('',#{ax})"));
+        w.add(format!("CURVE_BOUNDED_SURFACE('',#{pl},(),.T.)"))
+    };
+    let mut w = Writer::new();
+    let cbs = add(&mut w);
+    let err = parse_step(&w.text(), "cbs.stp").unwrap_err().to_string();
+    assert!(
+        err.contains(&format!("#{cbs} CURVE_BOUNDED_SURFACE")) && err.contains("implicit_outer"),
+        "{err}"
+    );
+    let mut w = Writer::new();
+    faceted_cube_into(&mut w, false);
+    let cbs = add(&mut w);
+    let s = read(&w, "cube+cbs");
+    assert_eq!(s.model.faces.len(), 6);
+    assert!(
+        s.info
+            .notes
+            .iter()
+            .any(|n| n.starts_with(&format!("#{cbs} CURVE_BOUNDED_SURFACE: skipped"))),
+        "{:?}",
+        s.info.notes
+    );
+}
+
 /// Wireframe content is no B-rep: beside one it is noted and skipped; alone
 /// it is an error naming the file and the entity.
 #[test]
