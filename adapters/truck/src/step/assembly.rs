@@ -52,6 +52,7 @@ pub(crate) fn is_shape_root(t: &Table, id: u64) -> bool {
     t.get(id).is_ok_and(|e| {
         e.is("MANIFOLD_SOLID_BREP")
             || e.is("BREP_WITH_VOIDS")
+            || e.is("FACETED_BREP")
             || e.is("SHELL_BASED_SURFACE_MODEL")
             || e.is("CLOSED_SHELL")
             || e.is("OPEN_SHELL")

@@ -67,7 +67,13 @@ impl Scope {
             vertices: t.ids_of("VERTEX_POINT"),
             edges: t.ids_of("EDGE_CURVE"),
             faces: both("ADVANCED_FACE", "FACE_SURFACE"),
-            solids: both("MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"),
+            solids: {
+                let mut v = both("MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS");
+                v.extend(t.ids_of("FACETED_BREP"));
+                v.sort_unstable();
+                v.dedup();
+                v
+            },
             shells: both("CLOSED_SHELL", "OPEN_SHELL"),
         }
     }
@@ -83,7 +89,7 @@ impl Scope {
         let mut shells = Vec::new();
         for &r in roots {
             let e = t.get(r)?;
-            if e.is("MANIFOLD_SOLID_BREP") || e.is("BREP_WITH_VOIDS") {
+            if e.is("MANIFOLD_SOLID_BREP") || e.is("BREP_WITH_VOIDS") || e.is("FACETED_BREP") {
                 sc.solids.push(r);
                 shells.extend(solid_shells(t, r)?.into_iter().map(|(s, _)| s));
             } else if e.is("SHELL_BASED_SURFACE_MODEL") {
@@ -134,7 +140,11 @@ impl Scope {
 /// The shells of a solid: (shell reference, `true` for the outer one).
 fn solid_shells(t: &Table, id: u64) -> Result<Vec<(u64, bool)>, StepError> {
     let e = t.get(id)?;
-    let a = t.args(id, &["MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS"], 2)?;
+    let a = t.args(
+        id,
+        &["MANIFOLD_SOLID_BREP", "BREP_WITH_VOIDS", "FACETED_BREP"],
+        2,
+    )?;
     let mut shells = vec![(t.r(id, &a[1], "outer")?, true)];
     if e.is("BREP_WITH_VOIDS") {
         let voids = match e.part("BREP_WITH_VOIDS") {
@@ -183,8 +193,8 @@ fn edge_records(t: &Table) -> Result<HashMap<u64, EdgeRec>, StepError> {
     Ok(erec)
 }
 
-pub(crate) fn build(t: &Table) -> Result<StepModel, StepError> {
-    let geo = Geo::new(t);
+pub(crate) fn build(t: &Table, scale: f64) -> Result<StepModel, StepError> {
+    let geo = Geo::with_scale(t, scale);
     let mut model = Model {
         source: Some(t.source.clone()),
         ..Default::default()
@@ -688,52 +698,31 @@ fn build_edge(
             let c = HyperbolaArc::new(pl.o, pl.x, pl.y, sa, sb, ta, tb).map_err(bad)?;
             (Arc::new(c), ta, tb)
         }
-        CurveGeom::Spline(n) => {
-            let (lo, hi) = n.interval();
-            let per = hi - lo;
-            let curve_closed = (n.point(lo) - n.point(hi)).norm() <= tol.max(1e-9);
-            let samples = (16 * n.span_count()).clamp(32, 4000);
-            let (mut ta, da) = closest_parameter(n.as_ref(), &a, lo, hi, samples);
-            let (mut tb, db) = closest_parameter(n.as_ref(), &b, lo, hi, samples);
-            let far = 1e3 * tol;
-            if da > far || db > far {
-                return Err(t.err(
-                    id,
-                    format!(
-                        "its vertices lie {:.3e} and {:.3e} from its B-spline curve #{}",
-                        da, db, r.geom
-                    ),
-                ));
+        CurveGeom::Parabola { pl, f } => {
+            let probe = crate::step::curves::Parabola {
+                o: pl.o,
+                x: pl.x,
+                y: pl.y,
+                f,
+                t0: -1.0,
+                t1: 1.0,
+            };
+            let (ta, tb) = (probe.parameter_of(&a), probe.parameter_of(&b));
+            if closed || !(tb > ta) {
+                return Err(t.err(id, "its vertices are out of order along its parabola"));
             }
-            if curve_closed {
-                if hi - ta <= 1e-12 * per {
-                    ta = lo;
-                }
-                tb = ta + (tb - ta).rem_euclid(per);
-                if closed || tb - ta <= 1e-12 * per {
-                    tb = ta + per;
-                }
-                if tb > hi + 1e-12 * per {
-                    (Arc::new(WrappedCurve::new(n.clone())), ta, tb)
-                } else {
-                    (n.clone() as Arc<dyn Curve>, ta, tb.min(hi))
-                }
-            } else {
-                if closed {
-                    return Err(t.err(id, "a closed edge on an open B-spline curve"));
-                }
-                if !(tb > ta) {
-                    return Err(t.err(
-                        id,
-                        format!(
-                            "its vertices are out of order along its curve #{} (t = {ta} then {tb}; same_sense = {})",
-                            r.geom, r.same_sense
-                        ),
-                    ));
-                }
-                (n.clone() as Arc<dyn Curve>, ta, tb)
-            }
+            let c = crate::step::curves::Parabola {
+                t0: ta,
+                t1: tb,
+                ..probe
+            };
+            (Arc::new(c), ta, tb)
         }
+        CurveGeom::Spline(n) => {
+            let samples = (16 * n.span_count()).clamp(32, 4000);
+            trim_general(t, id, r, n.clone(), (a, b), samples, closed, tol, false)?
+        }
+        CurveGeom::General(c) => trim_general(t, id, r, c, (a, b), 1024, closed, tol, true)?,
     };
     Ok(Edge {
         curve,
@@ -743,6 +732,102 @@ fn build_edge(
         end: mb,
         name: Some(format!("#{id}")),
     })
+}
+
+/// A bounded curve trimmed to the edge's vertices `a`, `b` (in the edge's
+/// direction) by closest-point inversion, across the start of a closed
+/// curve where needed. `general`: not a B-spline but a curve that may pass
+/// a point more than once (a pcurve line on a cylinder winds around it):
+/// the edge starts at the first pass near `a` and ends at the first pass
+/// near `b` after it.
+#[allow(clippy::too_many_arguments)]
+fn trim_general(
+    t: &Table,
+    id: u64,
+    r: &EdgeRec,
+    n: Arc<dyn Curve>,
+    (a, b): (P3, P3),
+    samples: usize,
+    closed: bool,
+    tol: f64,
+    general: bool,
+) -> Result<(Arc<dyn Curve>, f64, f64), StepError> {
+    let what = if general { "curve" } else { "B-spline curve" };
+    let (lo, hi) = n.interval();
+    let per = hi - lo;
+    let curve_closed = (n.point(lo) - n.point(hi)).norm() <= tol.max(1e-9);
+    let far = 1e3 * tol;
+    let (mut ta, da, mut tb, db) = if general {
+        let (ta, da) = first_near(n.as_ref(), &a, lo, hi, samples, far);
+        let from = if curve_closed { lo } else { ta };
+        let (tb, db) = first_near(n.as_ref(), &b, from, hi, samples, far);
+        (ta, da, tb, db)
+    } else {
+        let (ta, da) = closest_parameter(n.as_ref(), &a, lo, hi, samples);
+        let (tb, db) = closest_parameter(n.as_ref(), &b, lo, hi, samples);
+        (ta, da, tb, db)
+    };
+    if da > far || db > far {
+        return Err(t.err(
+            id,
+            format!(
+                "its vertices lie {:.3e} and {:.3e} from its {what} #{}",
+                da, db, r.geom
+            ),
+        ));
+    }
+    Ok(if curve_closed {
+        if hi - ta <= 1e-12 * per {
+            ta = lo;
+        }
+        tb = ta + (tb - ta).rem_euclid(per);
+        if closed || tb - ta <= 1e-12 * per {
+            tb = ta + per;
+        }
+        if tb > hi + 1e-12 * per {
+            (Arc::new(WrappedCurve::new(n.clone())), ta, tb)
+        } else {
+            (n.clone(), ta, tb.min(hi))
+        }
+    } else {
+        if closed {
+            return Err(t.err(id, format!("a closed edge on an open {what}")));
+        }
+        if !(tb > ta) {
+            return Err(t.err(
+                id,
+                format!(
+                    "its vertices are out of order along its curve #{} (t = {ta} then {tb}; same_sense = {})",
+                    r.geom, r.same_sense
+                ),
+            ));
+        }
+        (n.clone(), ta, tb)
+    })
+}
+
+/// The first parameter in `[lo, hi]` where `c` passes within `near` of `p`
+/// (a local minimum of the distance among `samples` + 1 samples, refined),
+/// else the closest overall. Returns (t, distance).
+fn first_near(c: &dyn Curve, p: &P3, lo: f64, hi: f64, samples: usize, near: f64) -> (f64, f64) {
+    let n = samples.max(2);
+    let h = (hi - lo) / n as f64;
+    let d: Vec<f64> = (0..=n)
+        .map(|k| (c.point(lo + h * k as f64) - p).norm())
+        .collect();
+    for k in 0..=n {
+        let left = k == 0 || d[k] <= d[k - 1];
+        let right = k == n || d[k] <= d[k + 1];
+        if left && right {
+            let a = lo + h * k.saturating_sub(1) as f64;
+            let b = (lo + h * (k + 1) as f64).min(hi);
+            let (t, dist) = closest_parameter(c, p, a, b, 8);
+            if dist <= near {
+                return (t, dist);
+            }
+        }
+    }
+    closest_parameter(c, p, lo, hi, samples)
 }
 
 /// The face: loops without its seams, on a view of its surface.

@@ -82,11 +82,34 @@ impl Rigid {
 /// A 3D curve of the file, untrimmed.
 #[derive(Clone, Debug)]
 pub enum CurveGeom {
-    Line { p: P3, d: V3 },
-    Circle { pl: Placement, r: f64 },
-    Ellipse { pl: Placement, a: f64, b: f64 },
-    Hyperbola { pl: Placement, a: f64, b: f64 },
+    Line {
+        p: P3,
+        d: V3,
+    },
+    Circle {
+        pl: Placement,
+        r: f64,
+    },
+    Ellipse {
+        pl: Placement,
+        a: f64,
+        b: f64,
+    },
+    Hyperbola {
+        pl: Placement,
+        a: f64,
+        b: f64,
+    },
+    /// C(t) = o + f (t² x + 2 t y).
+    Parabola {
+        pl: Placement,
+        f: f64,
+    },
     Spline(Arc<Nurbs>),
+    /// Any other bounded curve, its parameter the file's (a composite
+    /// curve, an offset curve without an exact form, a pcurve's image):
+    /// edges are trimmed to their vertices by closest-point inversion.
+    General(Arc<dyn Curve>),
 }
 
 /// Where a B-spline's knots come from: the multiplicities and knots
@@ -124,10 +147,24 @@ pub struct Geo<'a> {
     /// from points and directions — placements, vectors, control points —
     /// is moved with it.
     pub xf: Rigid,
+    /// Output units per file length unit: every coordinate and length read
+    /// (points, radii, magnitudes, offsets) is multiplied by it before `xf`
+    /// is applied (1 unless a unit conversion was asked for).
+    pub scale: f64,
+    /// Reading the 2D geometry of a pcurve (ISO 10303-42 parameter space):
+    /// points and directions have two coordinates, become (x, y, 0), and are
+    /// neither scaled nor moved; AXIS2_PLACEMENT_2D is a placement.
+    pub flat: bool,
 }
 
 impl<'a> Geo<'a> {
+    #[cfg(test)]
     pub fn new(t: &'a Table) -> Self {
+        Self::with_scale(t, 1.0)
+    }
+
+    /// The reader converting lengths by `scale` (output units per file unit).
+    pub fn with_scale(t: &'a Table, scale: f64) -> Self {
         // plane angle unit: radians unless a conversion-based DEGREE is given
         let mut angle = 1.0;
         for e in t.ents.values() {
@@ -213,10 +250,12 @@ impl<'a> Geo<'a> {
         Geo {
             t,
             angle,
-            extent,
-            vertex_extent,
-            uncertainty,
+            extent: extent * scale,
+            vertex_extent: vertex_extent * scale,
+            uncertainty: uncertainty * scale,
             xf: Rigid::identity(),
+            scale,
+            flat: false,
         }
     }
 
@@ -229,14 +268,29 @@ impl<'a> Geo<'a> {
             vertex_extent: self.vertex_extent,
             uncertainty: self.uncertainty,
             xf,
+            scale: self.scale,
+            flat: self.flat,
         }
     }
 
     pub fn point(&self, id: u64) -> Result<P3, StepError> {
         let a = self.t.args(id, &["CARTESIAN_POINT"], 2)?;
         let c = self.t.coords(id, &a[1], "coordinates")?;
+        if self.flat {
+            return match c.as_slice() {
+                [x, y] => Ok(P3::new(*x, *y, 0.0)),
+                _ => Err(self.t.err(
+                    id,
+                    format!("has {} coordinates, a 2D point is needed", c.len()),
+                )),
+            };
+        }
         match c.as_slice() {
-            [x, y, z] => Ok(self.xf.point(&P3::new(*x, *y, *z))),
+            [x, y, z] => {
+                Ok(self
+                    .xf
+                    .point(&P3::new(*x * self.scale, *y * self.scale, *z * self.scale)))
+            }
             _ => Err(self.t.err(
                 id,
                 format!("has {} coordinates, a 3D point is needed", c.len()),
@@ -248,7 +302,8 @@ impl<'a> Geo<'a> {
         let a = self.t.args(id, &["DIRECTION"], 2)?;
         let c = self.t.reals(id, &a[1], "direction ratios")?;
         let v = match c.as_slice() {
-            [x, y, z] => V3::new(*x, *y, *z),
+            [x, y] if self.flat => V3::new(*x, *y, 0.0),
+            [x, y, z] if !self.flat => V3::new(*x, *y, *z),
             _ => {
                 return Err(self.t.err(
                     id,
@@ -257,22 +312,46 @@ impl<'a> Geo<'a> {
             }
         };
         v.try_normalize(0.0)
-            .map(|v| self.xf.vector(&v))
+            .map(|v| if self.flat { v } else { self.xf.vector(&v) })
             .ok_or_else(|| self.t.err(id, "is the zero vector"))
     }
 
-    fn vector(&self, id: u64) -> Result<V3, StepError> {
+    pub(super) fn vector(&self, id: u64) -> Result<V3, StepError> {
         let a = self.t.args(id, &["VECTOR"], 3)?;
         let d = self.direction(self.t.r(id, &a[1], "orientation")?)?;
-        let m = self.t.real(id, &a[2], "magnitude")?;
+        let m = self.t.real(id, &a[2], "magnitude")? * self.len_scale();
         if !(m > 0.0) {
             return Err(self.t.err(id, format!("magnitude {m} is not positive")));
         }
         Ok(d * m)
     }
 
-    /// AXIS2_PLACEMENT_3D(name, location, axis?, ref_direction?).
+    /// The factor lengths read are multiplied by (1 in parameter space).
+    pub(super) fn len_scale(&self) -> f64 {
+        if self.flat {
+            1.0
+        } else {
+            self.scale
+        }
+    }
+
+    /// AXIS2_PLACEMENT_3D(name, location, axis?, ref_direction?); in
+    /// parameter space also AXIS2_PLACEMENT_2D(name, location, ref_direction?).
     pub fn placement(&self, id: u64) -> Result<Placement, StepError> {
+        if self.flat && self.t.get(id)?.is("AXIS2_PLACEMENT_2D") {
+            let a = self.t.args(id, &["AXIS2_PLACEMENT_2D"], 2)?;
+            let o = self.point(self.t.r(id, &a[1], "location")?)?;
+            let x = match a.get(2) {
+                None | Some(Parameter::NotProvided) | Some(Parameter::Omitted) => V3::x(),
+                Some(p) => self.direction(self.t.r(id, p, "ref_direction")?)?,
+            };
+            return Ok(Placement {
+                o,
+                x,
+                y: V3::new(-x.y, x.x, 0.0),
+                z: V3::z(),
+            });
+        }
         let a = self.t.args(id, &["AXIS2_PLACEMENT_3D"], 2)?;
         let o = self.point(self.t.r(id, &a[1], "location")?)?;
         let opt = |k: usize, what: &str, dflt: V3| -> Result<V3, StepError> {
@@ -308,8 +387,9 @@ impl<'a> Geo<'a> {
         Ok((o, z))
     }
 
-    fn positive(&self, id: u64, p: &Parameter, what: &str) -> Result<f64, StepError> {
-        let r = self.t.real(id, p, what)?;
+    /// A positive length (converted by `scale`).
+    pub(super) fn positive(&self, id: u64, p: &Parameter, what: &str) -> Result<f64, StepError> {
+        let r = self.t.real(id, p, what)? * self.len_scale();
         if !(r > 0.0) {
             return Err(self.t.err(id, format!("{what} {r} is not positive")));
         }
@@ -322,7 +402,7 @@ impl<'a> Geo<'a> {
         self.curve_depth(id, 0)
     }
 
-    fn curve_depth(&self, id: u64, depth: usize) -> Result<CurveGeom, StepError> {
+    pub(super) fn curve_depth(&self, id: u64, depth: usize) -> Result<CurveGeom, StepError> {
         if depth > 8 {
             return Err(self.t.err(id, "curve references nest too deeply"));
         }
@@ -355,7 +435,27 @@ impl<'a> Geo<'a> {
         }
         if e.is("SURFACE_CURVE") || e.is("SEAM_CURVE") {
             let a = self.t.args(id, &["SURFACE_CURVE", "SEAM_CURVE"], 2)?;
-            return self.curve_depth(self.t.r(id, &a[1], "curve_3d")?, depth + 1);
+            let c3 = self.curve_depth(self.t.r(id, &a[1], "curve_3d")?, depth + 1);
+            return match c3 {
+                Ok(c) => Ok(c),
+                // the 3D curve cannot be read: the pcurves can stand in
+                Err(err) => self.via_pcurves(id, a.get(2), depth).ok_or(err),
+            };
+        }
+        if e.is("PARABOLA") {
+            let a = self.t.args(id, &["PARABOLA"], 3)?;
+            let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
+            let f = self.positive(id, &a[2], "focal_dist")?;
+            return Ok(CurveGeom::Parabola { pl, f });
+        }
+        if e.is("OFFSET_CURVE_3D") {
+            return self.offset_curve(id, depth);
+        }
+        if e.is("COMPOSITE_CURVE") || e.is("BOUNDARY_CURVE") || e.is("OUTER_BOUNDARY_CURVE") {
+            return Ok(CurveGeom::General(Arc::new(self.composite(id, depth)?)));
+        }
+        if e.is("PCURVE") && !self.flat {
+            return Ok(CurveGeom::General(self.pcurve(id, depth)?));
         }
         if e.is("TRIMMED_CURVE") {
             let a = self.t.args(id, &["TRIMMED_CURVE"], 2)?;
@@ -395,9 +495,10 @@ impl<'a> Geo<'a> {
         }
         Err(self.t.err(
             id,
-            "unsupported curve type (supported: LINE, CIRCLE, ELLIPSE, HYPERBOLA, POLYLINE, \
-             B_SPLINE_CURVE_WITH_KNOTS, UNIFORM_CURVE, QUASI_UNIFORM_CURVE, BEZIER_CURVE and their \
-             rational forms, SURFACE_CURVE, SEAM_CURVE, TRIMMED_CURVE)",
+            "unsupported curve type (supported: LINE, CIRCLE, ELLIPSE, HYPERBOLA, PARABOLA, \
+             POLYLINE, B_SPLINE_CURVE_WITH_KNOTS, UNIFORM_CURVE, QUASI_UNIFORM_CURVE, BEZIER_CURVE \
+             and their rational forms, SURFACE_CURVE, SEAM_CURVE, TRIMMED_CURVE, OFFSET_CURVE_3D, \
+             COMPOSITE_CURVE, PCURVE)",
         ))
     }
 
@@ -669,12 +770,11 @@ impl<'a> Geo<'a> {
                 )
                 .map_err(bad)?,
             ),
-            CurveGeom::Hyperbola { .. } => {
-                return Err(self
-                    .t
-                    .err(id, "a HYPERBOLA as a swept profile is not supported"))
-            }
             CurveGeom::Spline(n) => n,
+            // over ±4 file extents, like a line
+            g @ (CurveGeom::Hyperbola { .. }
+            | CurveGeom::Parabola { .. }
+            | CurveGeom::General(_)) => self.finite(id, &g)?,
         })
     }
 
@@ -726,7 +826,7 @@ impl<'a> Geo<'a> {
         if e.is("CONICAL_SURFACE") {
             let a = self.t.args(id, &["CONICAL_SURFACE"], 4)?;
             let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
-            let r = self.t.real(id, &a[2], "radius")?;
+            let r = self.t.real(id, &a[2], "radius")? * self.scale;
             let alpha = self.t.real(id, &a[3], "semi_angle")? * self.angle;
             if !(r >= 0.0) || !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
                 return Err(self.t.err(
@@ -804,7 +904,7 @@ impl<'a> Geo<'a> {
             // sphere's centre, a torus's tube) is the same kind of surface
             let a = self.t.args(id, &["OFFSET_SURFACE"], 3)?;
             let basis = self.t.r(id, &a[1], "basis_surface")?;
-            let d = self.t.real(id, &a[2], "distance")?;
+            let d = self.t.real(id, &a[2], "distance")? * self.scale;
             if let Some(sg) = self.elementary(basis, d)? {
                 return Ok(sg);
             }
@@ -824,7 +924,7 @@ impl<'a> Geo<'a> {
             // part is that circle's arc on the chosen side, revolved
             let a = self.t.args(id, &["DEGENERATE_TOROIDAL_SURFACE"], 5)?;
             let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
-            let big = self.t.real(id, &a[2], "major_radius")?;
+            let big = self.t.real(id, &a[2], "major_radius")? * self.scale;
             let small = self.positive(id, &a[3], "minor_radius")?;
             let outer = self.t.boolean(id, &a[4], "select_outer")?;
             if !(big >= 0.0) {
@@ -881,6 +981,11 @@ impl<'a> Geo<'a> {
                 Extrusion::with_range(prof, d, [-l, l]).map_err(bad)?,
             ));
         }
+        if e.is("CURVE_BOUNDED_SURFACE") {
+            // as a face's geometry: the face's loops bound it
+            let a = self.t.args(id, &["CURVE_BOUNDED_SURFACE"], 2)?;
+            return self.surface_depth(self.t.r(id, &a[1], "basis_surface")?, depth + 1);
+        }
         if e.is("RECTANGULAR_TRIMMED_SURFACE") {
             // the face's loops trim it anyway
             let a = self.t.args(id, &["RECTANGULAR_TRIMMED_SURFACE"], 2)?;
@@ -892,7 +997,8 @@ impl<'a> Geo<'a> {
              SPHERICAL_SURFACE, TOROIDAL_SURFACE, DEGENERATE_TOROIDAL_SURFACE, \
              OFFSET_SURFACE of those, B_SPLINE_SURFACE_WITH_KNOTS, UNIFORM_SURFACE, \
              QUASI_UNIFORM_SURFACE, BEZIER_SURFACE and its rational \
-             form, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION, RECTANGULAR_TRIMMED_SURFACE)",
+             form, SURFACE_OF_REVOLUTION, SURFACE_OF_LINEAR_EXTRUSION, RECTANGULAR_TRIMMED_SURFACE, \
+             CURVE_BOUNDED_SURFACE)",
         ))
     }
 }
@@ -1022,6 +1128,68 @@ mod tests {
             "#1 = OFFSET_SURFACE('',#4,-3.,.F.);\n#4 = SPHERICAL_SURFACE('',#2,2.);\n{place}"
         ));
         assert!(Geo::new(&t).surface(1).is_err());
+    }
+
+    /// A PARABOLA revolved about its axis is the paraboloid 4 f z = ρ², a
+    /// HYPERBOLA the hyperboloid of one sheet ρ²/a² − z²/b² = 1; their
+    /// derivatives agree with finite differences.
+    #[test]
+    fn revolved_parabola_and_hyperbola_are_quadrics() {
+        // the conics in the xz plane: their x axis along z (parabola) or x
+        // (hyperbola), revolved about z
+        let cases: [(&str, &str, fn(&P3) -> f64); 2] = [
+            (
+                "PARABOLA('',#4,0.5)",
+                "#6 = DIRECTION('',(0.,1.,0.));\n#7 = DIRECTION('',(0.,0.,1.));\n",
+                |p| 2.0 * p.z - (p.x * p.x + p.y * p.y),
+            ),
+            (
+                "HYPERBOLA('',#4,1.,2.)",
+                "#6 = DIRECTION('',(0.,-1.,0.));\n#7 = DIRECTION('',(1.,0.,0.));\n",
+                |p| (p.x * p.x + p.y * p.y) - p.z * p.z / 4.0 - 1.0,
+            ),
+        ];
+        for (conic, dirs, residual) in cases {
+            let t = table(&format!(
+                "#1 = SURFACE_OF_REVOLUTION('',#2,#3);\n#2 = {conic};\n\
+                 #3 = AXIS1_PLACEMENT('',#5,#8);\n#4 = AXIS2_PLACEMENT_3D('',#5,#6,#7);\n\
+                 #5 = CARTESIAN_POINT('',(0.,0.,0.));\n{dirs}#8 = DIRECTION('',(0.,0.,1.));\n\
+                 #9 = CARTESIAN_POINT('',(3.,3.,3.));\n"
+            ));
+            let s = Geo::new(&t)
+                .surface(1)
+                .unwrap_or_else(|e| panic!("{conic}: {e}"));
+            let s = s.surface.as_ref();
+            let (u, v) = s.domain();
+            for i in 1..10 {
+                for j in 1..10 {
+                    let (a, b) = (
+                        u[0] + (u[1] - u[0]) * i as f64 / 10.0,
+                        v[0] + (v[1] - v[0]) * j as f64 / 10.0,
+                    );
+                    let p = s.point(a, b);
+                    let r = residual(&p);
+                    assert!(
+                        r.abs() < 1e-6 * (1.0 + p.coords.norm_squared()),
+                        "{conic}: {p:?} off by {r}"
+                    );
+                    let d = s.derivs(a, b);
+                    let h = 1e-6;
+                    let su = (s.point(a + h, b) - s.point(a - h, b)) / (2.0 * h);
+                    let sv = (s.point(a, b + h) - s.point(a, b - h)) / (2.0 * h);
+                    let scale = 1.0 + d.su.norm() + d.sv.norm();
+                    assert!((su - d.su).norm() < 1e-5 * scale, "{conic}: S_u");
+                    assert!((sv - d.sv).norm() < 1e-5 * scale, "{conic}: S_v");
+                    let suu = (s.derivs(a + h, b).su - s.derivs(a - h, b).su) / (2.0 * h);
+                    let svv = (s.derivs(a, b + h).sv - s.derivs(a, b - h).sv) / (2.0 * h);
+                    let suv = (s.derivs(a, b + h).su - s.derivs(a, b - h).su) / (2.0 * h);
+                    let s2 = scale + d.suu.norm() + d.svv.norm();
+                    assert!((suu - d.suu).norm() < 1e-4 * s2, "{conic}: S_uu");
+                    assert!((svv - d.svv).norm() < 1e-4 * s2, "{conic}: S_vv");
+                    assert!((suv - d.suv).norm() < 1e-4 * s2, "{conic}: S_uv");
+                }
+            }
+        }
     }
 
     /// POLYLINE and the B-spline forms with implicit knots evaluate as their

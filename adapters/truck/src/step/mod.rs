@@ -32,17 +32,59 @@
 //! - in an assembly (module `assembly`), all of that once per placed
 //!   instance of a part, moved by the instance's placement: a part used
 //!   twice is two volumes with their own faces, edges and vertices;
-//! - degenerate edges (a LINE of zero length) as their one vertex.
+//! - degenerate edges (a LINE of zero length) as their one vertex;
+//! - a `FACETED_BREP` as a solid like a `MANIFOLD_SOLID_BREP`: each
+//!   `POLY_LOOP` side a straight edge shared by the faces on both sides, a
+//!   `FACE` without geometry on the plane of its polygon (module `faceted`);
+//! - a `CURVE_BOUNDED_SURFACE` that no face uses as its geometry as a face of
+//!   its basis surface, each boundary curve one closed edge; used as a
+//!   face's geometry, as its basis surface;
+//! - curves: besides the conics, lines and B-splines, `PARABOLA`,
+//!   `OFFSET_CURVE_3D` (along ref_direction × tangent, as OpenCascade reads
+//!   it; a line or a circle offset in its plane exactly, other bases
+//!   evaluated), `COMPOSITE_CURVE` (its segments joined, trimmed
+//!   curves by their trims), and `PCURVE`s (the 2D curve of its
+//!   `DEFINITIONAL_REPRESENTATION` evaluated on a plane, cylinder, sphere or
+//!   B-spline surface) where an edge or a `SURFACE_CURVE` whose 3D curve
+//!   cannot be read gives its geometry only through one;
+//! - wireframe-only content (`GEOMETRIC_CURVE_SET`, `GEOMETRIC_SET`,
+//!   `…WIREFRAME…` representations) is not B-rep: it is listed in
+//!   [`StepInfo::notes`] and skipped; a file with nothing else is an error
+//!   naming the entity.
 //!
 //! Any entity that cannot be converted makes the read fail with a
 //! [`StepError`] naming it. Limits guard against hostile input: degree ≤
 //! [`bubblemesh_analytic::MAX_NURBS_DEGREE`], at most
 //! [`MAX_CONTROL_POINTS`] control points per curve or surface.
 //!
-//! Lengths are in the file's length unit; angles are converted to radians.
+//! Lengths are in the file's length unit unless a conversion is asked for;
+//! angles are converted to radians.
+//!
+//! # Units
+//!
+//! [`read_step`] keeps the coordinates in the file's length unit
+//! ([`StepInfo::length_unit`]). [`read_step_with`] / [`parse_step_with`]
+//! with [`StepOptions::unit`] set convert them to another unit exactly as
+//! they are read: every point (vertices, placements, control points of
+//! B-splines), every length (radii, semi-axes, vector magnitudes, offset
+//! distances, focal distances) and the file's tolerances are multiplied by
+//! the ratio of the units; directions, angles, weights and knots are
+//! unchanged. The file must name its length unit then (a file without one is
+//! refused: its unit is unknown).
+//!
+//! ```no_run
+//! use bubblemesh_truck::step::{read_step_with, LengthUnit, StepOptions};
+//! let opts = StepOptions { unit: Some(LengthUnit::parse("mm").unwrap()) };
+//! let m = read_step_with(std::path::Path::new("part_in_inches.stp"), &opts).unwrap();
+//! assert_eq!(m.info.length_unit.unwrap().name, "millimetre");
+//! assert_eq!(m.info.file_length_unit.unwrap().name, "inch");
+//! ```
 
 mod assembly;
 mod build;
+mod curve_read;
+mod curves;
+mod faceted;
 mod geometry;
 pub mod part21;
 mod table;
@@ -111,8 +153,23 @@ pub struct StepInfo {
     /// Degenerate `EDGE_CURVE`s (zero-length lines): their vertices are one
     /// model vertex and they are not model edges.
     pub degenerate_edges: Vec<u64>,
-    /// The length unit the file's contexts assign (coordinates are in it).
+    /// The length unit the coordinates are in: the one the file's contexts
+    /// assign, or the one asked for in [`StepOptions::unit`].
     pub length_unit: Option<LengthUnit>,
+    /// The length unit the file's contexts assign.
+    pub file_length_unit: Option<LengthUnit>,
+    /// What was read but is not part of the model, one line each
+    /// (wireframe-only representations such as `GEOMETRIC_CURVE_SET`,
+    /// named with their entity).
+    pub notes: Vec<String>,
+}
+
+/// How to read a STEP file.
+#[derive(Debug, Clone, Default)]
+pub struct StepOptions {
+    /// Convert every coordinate and length from the file's length unit to
+    /// this one (`None`: keep the file's unit).
+    pub unit: Option<LengthUnit>,
 }
 
 /// One shell of the file.
@@ -137,16 +194,30 @@ pub struct StepModel {
 /// Reads a STEP file. Errors name the file, and the entity where one is at
 /// fault.
 pub fn read_step(path: &Path) -> Result<StepModel, StepError> {
+    read_step_with(path, &StepOptions::default())
+}
+
+/// Reads a STEP file with `options` (a unit conversion).
+pub fn read_step_with(path: &Path, options: &StepOptions) -> Result<StepModel, StepError> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path)
         .map_err(|e| StepError::file(&name, format!("cannot read the STEP file: {e}")))?;
     let text = String::from_utf8_lossy(&bytes);
-    parse_step(&text, &name)
+    parse_step_with(&text, &name, options)
 }
 
 /// Reads STEP text; `source_name` is used in messages and as the model's
 /// source.
 pub fn parse_step(text: &str, source_name: &str) -> Result<StepModel, StepError> {
+    parse_step_with(text, source_name, &StepOptions::default())
+}
+
+/// Reads STEP text with `options` (a unit conversion).
+pub fn parse_step_with(
+    text: &str,
+    source_name: &str,
+    options: &StepOptions,
+) -> Result<StepModel, StepError> {
     if text.trim_start_matches('\u{feff}').trim().is_empty() {
         return Err(StepError::file(source_name, "the file is empty"));
     }
@@ -158,11 +229,29 @@ pub fn parse_step(text: &str, source_name: &str) -> Result<StepModel, StepError>
         if instances.is_empty() {
             return Err(StepError::file(source_name, "the DATA section is empty"));
         }
-        let table = table::Table::new(source_name, instances)?;
-        build::build(&table).map(|mut m| {
-            m.info.length_unit = units::length_unit(&table);
-            m
-        })
+        let mut table = table::Table::new(source_name, instances)?;
+        faceted::expand(&mut table)?;
+        let notes = faceted::expand_curve_bounded(&mut table)?;
+        let file_unit = units::length_unit(&table);
+        let scale = match (&options.unit, &file_unit) {
+            (None, _) => 1.0,
+            (Some(to), Some(from)) => from.factor_to(to),
+            (Some(to), None) => {
+                return Err(StepError::file(
+                    source_name,
+                    format!(
+                        "the file names no length unit, so it cannot be converted to {}",
+                        to.name
+                    ),
+                ))
+            }
+        };
+        let mut m = build::build(&table, scale)?;
+        m.info.length_unit = options.unit.clone().or_else(|| file_unit.clone());
+        m.info.file_length_unit = file_unit;
+        m.info.notes = notes;
+        wireframes(&table, &mut m)?;
+        Ok(m)
     });
     match result {
         Ok(r) => r,
@@ -171,4 +260,38 @@ pub fn parse_step(text: &str, source_name: &str) -> Result<StepModel, StepError>
             "internal error while reading (a panic was caught); please report this file",
         )),
     }
+}
+
+/// Wireframe-only content (`GEOMETRIC_CURVE_SET`, `GEOMETRIC_SET`, the
+/// `…WIREFRAME…` shape representations): not B-rep, so not in the model.
+/// Each is noted in [`StepInfo::notes`]; a file with nothing else is an
+/// error naming the first of them.
+fn wireframes(t: &table::Table, m: &mut StepModel) -> Result<(), StepError> {
+    let mut ids: Vec<u64> = t
+        .ents
+        .iter()
+        .filter(|(_, e)| {
+            e.is("GEOMETRIC_CURVE_SET")
+                || e.is("GEOMETRIC_SET")
+                || e.records.iter().any(|r| r.name.contains("WIREFRAME"))
+        })
+        .map(|(&id, _)| id)
+        .collect();
+    ids.sort_unstable();
+    for &id in &ids {
+        m.info.notes.push(format!(
+            "#{id} {}: wireframe geometry, not a B-rep: skipped",
+            t.type_name(id)
+        ));
+    }
+    if m.model.faces.is_empty() && m.model.edges.is_empty() {
+        if let Some(&id) = ids.first() {
+            return Err(t.err(
+                id,
+                "the file has only wireframe geometry (curves, no B-rep faces or solids) \
+                 and nothing to mesh",
+            ));
+        }
+    }
+    Ok(())
 }

@@ -14,6 +14,58 @@ pub struct LengthUnit {
     pub metres: f64,
 }
 
+impl LengthUnit {
+    fn named(name: &str, metres: f64) -> Self {
+        LengthUnit {
+            name: name.to_string(),
+            metres,
+        }
+    }
+    pub fn millimetre() -> Self {
+        Self::named("millimetre", 1e-3)
+    }
+    pub fn centimetre() -> Self {
+        Self::named("centimetre", 1e-2)
+    }
+    pub fn metre() -> Self {
+        Self::named("metre", 1.0)
+    }
+    pub fn inch() -> Self {
+        Self::named("inch", 0.0254)
+    }
+    pub fn foot() -> Self {
+        Self::named("foot", 0.3048)
+    }
+    /// The unit called `s`: `mm`, `cm`, `m`, `in`, `ft` or the full names
+    /// (`millimetre`/`millimeter`, `inch`, `foot`/`feet`, …), any case.
+    pub fn parse(s: &str) -> Option<Self> {
+        Some(match s.trim().to_ascii_lowercase().as_str() {
+            "mm" | "millimetre" | "millimeter" | "millimetres" | "millimeters" => {
+                Self::millimetre()
+            }
+            "cm" | "centimetre" | "centimeter" | "centimetres" | "centimeters" => {
+                Self::centimetre()
+            }
+            "m" | "metre" | "meter" | "metres" | "meters" => Self::metre(),
+            "in" | "inch" | "inches" => Self::inch(),
+            "ft" | "foot" | "feet" => Self::foot(),
+            _ => return None,
+        })
+    }
+    /// How many of `to` make one of `self` (25.4 from inch to millimetre).
+    pub fn factor_to(&self, to: &LengthUnit) -> f64 {
+        let f = self.metres / to.metres;
+        // 0.0254 / 0.001 is 25.400000000000002 in floating point: a ratio
+        // within rounding of a number with few decimals is that number
+        let r = (f * 1e6).round() / 1e6;
+        if (r - f).abs() <= 1e-12 * f.abs() {
+            r
+        } else {
+            f
+        }
+    }
+}
+
 /// Metres per unit of the SI prefix `.MILLI.` etc. (`None`: no prefix).
 fn prefix(p: Option<&str>) -> Option<(f64, &'static str)> {
     Some(match p {
