@@ -29,9 +29,10 @@
 use std::collections::HashMap;
 
 use crate::geom::P3;
+use crate::measure::TET_FACES as FACE;
 use crate::mesh::Mesh;
 use crate::model::{EntityRef, Model};
-use crate::volume::connect::{c3, FACE};
+use crate::volume::connect::c3;
 
 /// Triangles with |cross product| ≤ this × diag² count as zero-area
 /// (meshcheck's threshold).

@@ -8,9 +8,9 @@ use std::collections::HashMap;
 
 use bubblemesh_analytic::parse_domain;
 use bubblemesh_core::engine::VolumeLattice;
+use bubblemesh_core::measure::tet_radius_ratio as radius_ratio;
 use bubblemesh_core::quality::analyse;
 use bubblemesh_core::spacing::{Constant, Expr};
-use bubblemesh_core::volume::tet::sliver::radius_ratio;
 use bubblemesh_core::{mesh_model, Mesh, Options, Spacing};
 
 const CUBE: &str = r#"

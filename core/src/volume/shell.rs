@@ -393,9 +393,29 @@ impl Shell {
 /// component outward (a component nested inside an odd number of others,
 /// a void, points into itself).
 ///
+/// Why a set of triangles is not a closed shell.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShellError {
+    /// A mesh edge used by other than two triangles: the shell is open or
+    /// non-manifold there.
+    #[error(
+        "the boundary is not closed: the mesh edge ({:.6}, {:.6}, {:.6})–({:.6}, {:.6}, {:.6}) \
+         belongs to {triangles} triangle(s), not 2",
+        a.x, a.y, a.z, b.x, b.y, b.z
+    )]
+    NotClosed {
+        /// The edge's ends.
+        a: P3,
+        /// The edge's other end.
+        b: P3,
+        /// How many triangles use it.
+        triangles: usize,
+    },
+}
+
 /// Returns an error naming an edge used by other than two triangles
 /// (the shell is open or non-manifold there).
-pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), String> {
+pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), ShellError> {
     let key = |a: u32, b: u32| if a < b { (a, b) } else { (b, a) };
     let mut by_edge: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (ti, t) in tris.iter().enumerate() {
@@ -408,17 +428,11 @@ pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), String> {
     }
     if let Some((e, ts)) = by_edge.iter().find(|(_, v)| v.len() != 2) {
         let (a, b) = (pts[e.0 as usize], pts[e.1 as usize]);
-        return Err(format!(
-            "the boundary is not closed: the mesh edge ({:.6}, {:.6}, {:.6})–({:.6}, {:.6}, {:.6}) \
-             belongs to {} triangle(s), not 2",
-            a.x,
-            a.y,
-            a.z,
-            b.x,
-            b.y,
-            b.z,
-            ts.len()
-        ));
+        return Err(ShellError::NotClosed {
+            a,
+            b,
+            triangles: ts.len(),
+        });
     }
     let n = tris.len();
     let mut comp = vec![u32::MAX; n];
@@ -602,7 +616,7 @@ mod tests {
     fn an_open_shell_is_refused() {
         let (pts, mut tris) = cube();
         tris.pop();
-        let err = orient_outward(&pts, &mut tris).unwrap_err();
+        let err = orient_outward(&pts, &mut tris).unwrap_err().to_string();
         assert!(err.contains("not closed"), "{err}");
     }
 }
