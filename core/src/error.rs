@@ -28,10 +28,10 @@ pub enum MeshError {
     /// A volume's tetrahedralization failed (other than for a boundary
     /// that is not Delaunay enough, which is [`MeshError::Refinable`]).
     #[error("{0}")]
-    Volume(#[from] crate::volume::connect::Connect3dError),
+    Volume(#[from] crate::volume::Connect3dError),
     /// A volume's faces do not close it.
     #[error("{0}")]
-    Shell(#[from] crate::volume::shell::ShellError),
+    Shell(#[from] crate::volume::ShellError),
     /// The finished mesh failed [`crate::verify::verify`]: nothing may be
     /// written.
     #[error("{0}")]

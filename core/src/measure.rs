@@ -428,8 +428,10 @@ mod tests {
             entity: EntityRef::new(0, 0),
             params: [0.0; 2],
         };
-        let mut m = Mesh::default();
-        m.nodes = vec![node(0.0), node(1.0)];
+        let mut m = Mesh {
+            nodes: vec![node(0.0), node(1.0)],
+            ..Default::default()
+        };
         m.lines.push(Element {
             nodes: [0, 2],
             entity: EntityRef::new(1, 0),

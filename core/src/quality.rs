@@ -615,7 +615,7 @@ fn tet_shape(p0: &P3, p1: &P3, p2: &P3, p3: &P3) -> (f64, f64, f64, f64) {
     let p = [p0, p1, p2, p3];
     let zero_face = crate::measure::TET_FACES.iter().any(|f| {
         let a2 = (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]])).norm();
-        !(a2 > 0.0)
+        a2.is_nan() || a2 <= 0.0
     });
     if zero_face || dmin.is_nan() {
         dmin = 0.0;

@@ -247,7 +247,8 @@ pub struct NodeField {
 /// empty list).
 pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoError> {
     let format = Format::from_path(path)?;
-    let parse: fn(&[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> = match format {
+    type Parser = fn(&[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError>;
+    let parse: Parser = match format {
         Format::Msh => msh::parse_with_node_data,
         Format::Vtu => vtu::parse_with_node_data,
         _ => return read_as(path, format).map(|m| (m, Vec::new())),

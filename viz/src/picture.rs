@@ -158,6 +158,13 @@ fn entity_name(mesh: &Mesh, e: EntityRef) -> String {
         .unwrap_or_else(|| e.to_string())
 }
 
+/// The scene of a picture: the fit of the model into the image, then the
+/// faces, lines and bubbles as primitives sorted back to front, and the
+/// legend.
+///
+/// Longer than 150 lines on purpose: every primitive is placed with the
+/// same projection, fit (scale, offsets) and view flags, which the phases
+/// would otherwise pass around in long argument lists.
 fn build(mesh: &Mesh, o: &PictureOptions) -> Result<Scene, VizError> {
     check_mesh(mesh)?;
     if let Some(b) = &o.bubbles {

@@ -70,8 +70,6 @@ pub struct VolumeConnection {
     pub kept: Vec<bool>,
     /// Tetrahedra (input point indices), positively oriented.
     pub tets: Vec<[u32; 4]>,
-    /// Rebuilds needed for boundary recovery.
-    pub recovery_rounds: usize,
     /// Free points removed for boundary recovery.
     pub removed: usize,
 }
@@ -256,7 +254,6 @@ pub fn connect_volume(
         return Ok(VolumeConnection {
             kept,
             tets: out,
-            recovery_rounds: round,
             removed,
         });
     }

@@ -38,10 +38,12 @@
 
 pub use crate::options::VolumeLattice;
 
-pub mod connect;
-pub mod shell;
+pub(crate) mod connect;
+pub(crate) mod shell;
 pub(crate) mod tet;
 
+pub use connect::Connect3dError;
+pub use shell::ShellError;
 pub use tet::SliverStats;
 
 use crate::geom::{VolumeGeometry, P3, V3};
@@ -268,7 +270,7 @@ pub fn lattice_seeds(
         };
         let n = [0, 1, 2].map(|k| (ext[k] / a).ceil() as usize + 1);
         let total = (n[0] as f64) * (n[1] as f64) * (n[2] as f64) * basis.len() as f64;
-        if !(total <= MAX_BUBBLES_PER_ENTITY as f64 * 2.0) {
+        if total.is_nan() || total > MAX_BUBBLES_PER_ENTITY as f64 * 2.0 {
             return Err(MeshError::TooManyBubbles {
                 limit: MAX_BUBBLES_PER_ENTITY,
             });
@@ -526,7 +528,7 @@ impl Boundary {
 /// How one attempt at a volume ended.
 enum Attempt {
     /// The volume is meshed (and written into the mesh).
-    Done(VolumeReport),
+    Done(Box<VolumeReport>),
     /// A BCC start was given up: this fraction of its tetrahedra made it
     /// so. Nothing was written into the mesh.
     GiveUp(f64),
@@ -564,7 +566,7 @@ pub(super) fn mesh_volume(
                 if rejected.is_some() {
                     rep.bcc_rejected = rejected;
                 }
-                return Ok(rep);
+                return Ok(*rep);
             }
             Attempt::GiveUp(frac) => {
                 // nothing of the BCC attempt is in the mesh yet: nodes and
@@ -648,7 +650,7 @@ fn attempt(
     refuse_flat(&tm, rep.steiner)?;
     write_volume(job.entity, boundary, &tm, &mut rep, mesh);
     timings.connect_s += t3.elapsed().as_secs_f64();
-    Ok(Attempt::Done(rep))
+    Ok(Attempt::Done(Box::new(rep)))
 }
 
 /// Stage 1: the boundary nodes as fixed bubbles and the `lattice` seeds

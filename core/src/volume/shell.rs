@@ -77,7 +77,7 @@ impl Voxels {
         // voxels about one edge wide, at most 8 per triangle and 8M in all
         let mut h = edge / tris.len() as f64;
         let cap = ((8 * tris.len()).max(64) as f64).min(8e6);
-        if !(h > 0.0) {
+        if h.is_nan() || h <= 0.0 {
             return None;
         }
         // one voxel of margin on every side so the border is outside
@@ -160,7 +160,7 @@ impl Voxels {
         let mut c = [0usize; 3];
         for a in 0..3 {
             let x = (p[a] - self.lo[a]) * self.inv_h;
-            if !(x >= 0.0) || x as usize >= self.dims[a] {
+            if x.is_nan() || x < 0.0 || x as usize >= self.dims[a] {
                 return None;
             }
             c[a] = x as usize;
@@ -227,7 +227,7 @@ impl Shell {
         let mut h = 2.0 * size / kept.len() as f64;
         let ext = [hi[0] - lo[0], hi[1] - lo[1]];
         let max_cells = (4 * kept.len()).max(16) as f64;
-        if !(h > 0.0) {
+        if h.is_nan() || h <= 0.0 {
             h = ext[0].max(ext[1]).max(1e-300);
         }
         while ((ext[0] / h).floor() + 1.0) * ((ext[1] / h).floor() + 1.0) > max_cells {
@@ -509,7 +509,8 @@ pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), ShellErro
 }
 
 /// Volume enclosed by outward-oriented closed shells (divergence theorem).
-pub fn enclosed_volume(pts: &[P3], tris: &[[u32; 3]]) -> f64 {
+#[cfg(test)]
+fn enclosed_volume(pts: &[P3], tris: &[[u32; 3]]) -> f64 {
     tris.iter()
         .map(|t| {
             let [a, b, c] = t.map(|k| pts[k as usize].coords);

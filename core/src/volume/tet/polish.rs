@@ -233,7 +233,7 @@ fn search(
             star.sum(&(at + V3::z() * h)) - best,
         );
         let gn = g.norm();
-        if !(gn > 0.0) {
+        if gn.is_nan() || gn <= 0.0 {
             break;
         }
         let dir = g / gn;

@@ -52,7 +52,7 @@ pub(crate) fn steiner_points(
             .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))
             .unwrap_or_else(V3::zeros);
         let nn = n.norm();
-        if !(nn > 0.0) {
+        if nn.is_nan() || nn <= 0.0 {
             continue;
         }
         for s in [1.0, -1.0] {
