@@ -46,9 +46,9 @@ pub fn orient3d(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
 }
 
 /// Radius ratio of a triangle, q = 2·r_in/r_circ
-/// = (b+c−a)(c+a−b)(a+b−c)/(abc) for edge lengths a, b, c (thesis §5.2's
-/// triangle quality): 1 for an equilateral triangle, 0 for a degenerate
-/// one, clipped to [0, 1] with 0 when undefined (coincident corners).
+/// = (b+c−a)(c+a−b)(a+b−c)/(abc) for edge lengths a, b, c: 1 for an
+/// equilateral triangle, 0 for a degenerate one,
+/// clipped to [0, 1] with 0 when undefined (coincident corners).
 /// Dimensionless; the same in any plane in 3D.
 pub fn triangle_radius_ratio(a: &P3, b: &P3, c: &P3) -> f64 {
     let (la, lb, lc) = ((c - b).norm(), (a - c).norm(), (b - a).norm());
@@ -127,7 +127,8 @@ pub fn dihedral_extremes(a: &P3, b: &P3, c: &P3, d: &P3) -> (f64, f64) {
 }
 
 /// The circumcentre of a tetrahedron (the centre of the sphere through its
-/// corners, thesis §5.1.4's Delaunay criterion), `None` when it is flat:
+/// corners, whose emptiness is the Delaunay criterion of the thesis's 3D
+/// connection, §5.1.4), `None` when it is flat:
 /// a + N/(2·V6) with N and V6 as in [`tet_radius_ratio`]. Model units.
 pub fn tet_circumcentre(a: &P3, b: &P3, c: &P3, d: &P3) -> Option<P3> {
     let (u, v, w) = (b - a, c - a, d - a);

@@ -274,12 +274,7 @@ pub fn viewer(mesh: &Mesh, o: &ViewerOptions) -> Result<String, VizError> {
         .flat_map(|t| t.nodes.iter())
         .chain(mesh.tetrahedra.iter().flat_map(|t| t.nodes.iter()))
         .any(|&v| v as usize >= n);
-    if bad
-        || mesh
-            .nodes
-            .iter()
-            .any(|p| !p.pos.iter().all(|c| c.is_finite()))
-    {
+    if bad || bubblemesh_core::measure::first_non_finite(mesh).is_some() {
         return Err(VizError::InvalidMesh(
             "an element refers to a missing node or a node is not finite".into(),
         ));

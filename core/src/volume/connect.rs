@@ -48,7 +48,7 @@ pub enum Connect3dError {
         y: f64,
         z: f64,
         /// Indices into the boundary triangles of those missing (at most
-        /// [`MAX_REPORTED`]), so that the faces they belong to can be
+        /// `MAX_REPORTED`), so that the faces they belong to can be
         /// meshed finer.
         triangles: Vec<u32>,
     },

@@ -2,7 +2,7 @@
 //! boundary is already meshed.
 //!
 //! - The boundary: the triangles of the volume's faces, oriented outward
-//!   ([`shell`]); their nodes are the fixed bubbles.
+//!   (`shell`); their nodes are the fixed bubbles.
 //! - Stage 1 (§4.1.3, Fig. 4.6): a face-centred cubic packing. With a
 //!   uniform spacing d it is the exact FCC lattice of nearest-neighbour
 //!   distance d (cube side a = √2·d, 4 bubbles per cube); with a varying
@@ -33,7 +33,7 @@
 //!   spacing (a BCC octree measured the same as FCC on case I, 0.904
 //!   against 0.903).
 //! - Inside/outside: the adapter's exact answer where it has one, and
-//!   always the boundary mesh ([`Shell::inside`]), so no bubble leaves the
+//!   always the boundary mesh (`Shell::inside`), so no bubble leaves the
 //!   meshed boundary.
 
 pub use crate::options::VolumeLattice;
@@ -93,7 +93,7 @@ pub const BCC_JITTER: f64 = 1e-6;
 
 /// A BCC start is given up for FCC and stage 2 when more than this
 /// fraction of its Delaunay tetrahedra are below the sliver target
-/// ([`TARGET_Q`]). Where the lattice meets the boundary's
+/// (`TARGET_Q`). Where the lattice meets the boundary's
 /// bubbles unrelaxed, thin parts get many poor tetrahedra, and the sliver
 /// pass then costs more than stage 2 and ODT would have: b3d_flange at 1.5
 /// had 3.6 % (mean 0.899 in 28 s against FCC's 0.912 in 10 s), b3d_bracket
@@ -103,7 +103,7 @@ pub const BCC_JITTER: f64 = 1e-6;
 pub const BCC_MAX_BAD: f64 = 0.02;
 
 /// A BCC start is also given up for FCC when, after the sliver pass and
-/// the polish, a tetrahedron is below this floor ([`below_bcc_floor`]):
+/// the polish, a tetrahedron is below this floor (`below_bcc_floor`):
 /// radius ratio [`BCC_FLOOR_RR`], dihedral angles within
 /// [`BCC_FLOOR_DIHEDRAL`] (the quality bounds asked of volume meshes are
 /// 0.45 and [25°, 140°]). The
@@ -113,7 +113,7 @@ pub const BCC_MAX_BAD: f64 = 0.02;
 /// and that is kept, for 3–10× less time.
 ///
 /// Why the measures themselves and not a floor on the
-/// [`tet::star::objective`]: the objective maps 25° to 0.514 but 140°
+/// `tet::star::objective`: the objective maps 25° to 0.514 but 140°
 /// to 0.530, and a floor of 0.53 on it sent case K to FCC (168 s instead
 /// of 15 s) for four tetrahedra at 25.4°, inside the bounds.
 pub const BCC_FLOOR_RR: f64 = 0.5;
@@ -168,7 +168,7 @@ impl Spacing for Scaled<'_> {
 }
 
 /// Bubbles moving inside a volume.
-pub struct InVolume<'a> {
+pub(crate) struct InVolume<'a> {
     pub entity: EntityRef,
     pub geometry: Option<&'a dyn VolumeGeometry>,
     pub shell: &'a Shell,
@@ -229,7 +229,7 @@ pub(crate) fn jitter_source(seed: u64) -> impl FnMut() -> f64 {
 /// within the box `lo..hi`, with their spacing. Bubbles too close to a
 /// fixed bubble (`fixed`, with diameters `fixed_d`) are left out.
 /// [`Lattice::Bcc`] needs a uniform spacing (else FCC is used).
-pub fn lattice_seeds(
+pub(crate) fn lattice_seeds(
     carrier: &InVolume<'_>,
     spacing: &dyn Spacing,
     lo: P3,
@@ -392,7 +392,7 @@ pub struct VolumeReport {
 
 /// The outward-oriented boundary triangles (global node ids) of volume
 /// `vi`: the triangles of its faces.
-pub fn boundary_of(
+pub(crate) fn boundary_of(
     model: &crate::model::Model,
     vi: usize,
     mesh: &crate::mesh::Mesh,

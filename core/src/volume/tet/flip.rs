@@ -14,6 +14,7 @@
 
 use crate::geom::{P3, V3};
 
+use super::mesh::TetMesh;
 use super::star::{node_tets, objective_of, TARGET_Q};
 use crate::measure::{orient3d, tet_radius_ratio_of, TET_FACES};
 
@@ -320,13 +321,29 @@ impl Goal {
     }
 }
 
+/// The flips' tuning.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FlipParams {
+    /// Sweeps of [`raise_worst`] (it stops earlier when a sweep flips
+    /// nothing).
+    pub worst_sweeps: usize,
+}
+
+impl Default for FlipParams {
+    fn default() -> Self {
+        FlipParams { worst_sweeps: 4 }
+    }
+}
+
 /// Edge removals and 2-3 flips around every tetrahedron whose
 /// [`objective`](super::star::objective) is below [`TARGET_Q`], each
 /// accepted only when it raises the worst objective of the tetrahedra it
-/// replaces (so it terminates); up to 4 sweeps. `qs[i]` is the objective
-/// of `tets[i]`, on entry and on return. Returns the flips made.
-pub(crate) fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>, qs: &mut Vec<f64>) -> usize {
-    sweep(pos, tets, qs, Goal::Worst, TARGET_Q, 4)
+/// replaces (so it terminates); up to `params.worst_sweeps` sweeps. `qs[i]`
+/// is the objective of `mesh.tets[i]`, on entry and on return. Nodes never
+/// move. Returns the flips made.
+pub(crate) fn raise_worst(mesh: &mut TetMesh, params: &FlipParams, qs: &mut Vec<f64>) -> usize {
+    let (pos, tets) = (&mesh.pos, &mut mesh.tets);
+    sweep(pos, tets, qs, Goal::Worst, TARGET_Q, params.worst_sweeps)
 }
 
 /// One sweep of edge removals and 2-3 flips around every tetrahedron whose
@@ -340,7 +357,8 @@ pub(crate) fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>, qs: &mut Vec<f64
 /// one sweep around tetrahedra below 0.7 made 1,737 flips among 117k
 /// tetrahedra, the mean went 0.886 → 0.892, and the next smoothing pass
 /// reached 0.901 where a pass without flips reaches 0.887.
-pub(crate) fn raise_mean(pos: &[P3], tets: &mut Vec<[u32; 4]>, mu: f64, below: f64) -> usize {
+pub(crate) fn raise_mean(mesh: &mut TetMesh, mu: f64, below: f64) -> usize {
+    let (pos, tets) = (&mesh.pos, &mut mesh.tets);
     let goal = Goal::Mean {
         mu,
         floor: TARGET_Q,
@@ -398,7 +416,7 @@ fn sweep(
 mod tests {
     use super::*;
     use crate::volume::tet::mesh::testing::{
-        assert_positive, boundary_faces, jittered_lattice, mean_q, volume, worst_objective,
+        assert_positive, boundary_faces, jittered_mesh, mean_q, volume, worst_objective,
     };
 
     /// A mean-raising sweep on a jittered lattice: the mean rises, and the
@@ -408,10 +426,12 @@ mod tests {
     /// and no new tetrahedron below min(old worst, TARGET_Q).
     #[test]
     fn raise_mean_keeps_a_conforming_tetrahedralization() {
-        let (pos, _, tets0) = jittered_lattice(8, 0.45);
-        let mut tets = tets0.clone();
+        let mut mesh = jittered_mesh(8, 0.45);
+        let (pos, tets0) = (mesh.pos.clone(), mesh.tets.clone());
         let m0 = mean_q(&pos, &tets0);
-        let flips = raise_mean(&pos, &mut tets, m0, 1.0);
+        let flips = raise_mean(&mut mesh, m0, 1.0);
+        assert_eq!(mesh.pos, pos, "flips move no node");
+        let tets = mesh.tets;
         assert!(flips > 0);
         let m1 = mean_q(&pos, &tets);
         assert!(m1 > m0 + 0.01, "mean {m0} -> {m1}");
@@ -424,12 +444,14 @@ mod tests {
     /// The sliver goal never lowers the worst tetrahedron.
     #[test]
     fn raise_worst_lifts_the_worst_tetrahedron() {
-        let (pos, _, tets0) = jittered_lattice(8, 0.45);
-        let mut tets = tets0.clone();
+        let mut mesh = jittered_mesh(8, 0.45);
+        let (pos, tets0) = (mesh.pos.clone(), mesh.tets.clone());
         let w0 = worst_objective(&pos, &tets0);
         assert!(w0 < TARGET_Q);
-        let mut qs: Vec<f64> = tets.iter().map(|t| objective_of(&pos, t)).collect();
-        assert!(raise_worst(&pos, &mut tets, &mut qs) > 0);
+        let mut qs = mesh.objectives();
+        assert!(raise_worst(&mut mesh, &FlipParams::default(), &mut qs) > 0);
+        assert_eq!(mesh.pos, pos, "flips move no node");
+        let tets = mesh.tets;
         for (t, q) in tets.iter().zip(&qs) {
             assert_eq!(*q, objective_of(&pos, t), "the objectives stay current");
         }

@@ -105,13 +105,13 @@ pub(crate) fn polish(mesh: &mut TetMesh, params: &PolishParams) -> PolishStats {
         flips: 0,
     };
     for _ in 0..params.flip_rounds {
-        let (pos, tets) = (&mesh.pos, &mut mesh.tets);
+        let (pos, tets) = (&mesh.pos, &mesh.tets);
         let mu = tets
             .iter()
             .map(|t| tet_radius_ratio_of(pos, t))
             .sum::<f64>()
             / tets.len().max(1) as f64;
-        let flips = super::flip::raise_mean(pos, tets, mu, params.flip_below);
+        let flips = super::flip::raise_mean(mesh, mu, params.flip_below);
         stats.flips += flips;
         if flips == 0 {
             break;

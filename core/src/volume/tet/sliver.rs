@@ -27,6 +27,8 @@ pub(crate) struct SliverParams {
     pub flip_smooth_rounds: usize,
     /// Largest move of a node per smoothing pass, in units of its spacing.
     pub max_move: f64,
+    /// The flips between the searches.
+    pub flips: super::flip::FlipParams,
 }
 
 impl Default for SliverParams {
@@ -35,6 +37,7 @@ impl Default for SliverParams {
             rounds: 4,
             flip_smooth_rounds: 3,
             max_move: 0.35,
+            flips: Default::default(),
         }
     }
 }
@@ -42,10 +45,10 @@ impl Default for SliverParams {
 /// What sliver removal did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SliverStats {
-    /// Tetrahedra below [`TARGET_Q`] before and after, and the worst
-    /// [`objective`](super::star::objective).
+    /// Tetrahedra below `TARGET_Q` before and after, and the worst
+    /// objective.
     pub bad_before: usize,
-    /// Tetrahedra below [`TARGET_Q`] after.
+    /// Tetrahedra below `TARGET_Q` after.
     pub bad_after: usize,
     /// The worst objective before.
     pub min_q_before: f64,
@@ -96,7 +99,7 @@ pub(crate) fn remove_slivers_given(
         if stats.bad_after == 0 {
             break;
         }
-        stats.flips += super::flip::raise_worst(&mesh.pos, &mut mesh.tets, &mut qs);
+        stats.flips += super::flip::raise_worst(mesh, &params.flips, &mut qs);
         let s = search_moves(mesh, params, &mut qs);
         stats.moves += s.moves;
         stats.bad_after = s.bad_after;
