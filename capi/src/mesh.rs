@@ -116,7 +116,9 @@ fn code_of(e: &MeshError) -> bm_result {
         MeshError::BadSpacing { .. } | MeshError::TooManyBubbles { .. } => {
             bm_result::BM_ERR_SPACING
         }
-        MeshError::Invalid(_) => bm_result::BM_ERR_GEOMETRY,
+        MeshError::Invalid(_) | MeshError::Volume(_) | MeshError::Shell(_) => {
+            bm_result::BM_ERR_GEOMETRY
+        }
         MeshError::Unsupported(_) => bm_result::BM_ERR_UNSUPPORTED,
         MeshError::Connect(_) => bm_result::BM_ERR_MESH,
         MeshError::In { source, .. } => code_of(source),

@@ -25,6 +25,13 @@ pub enum MeshError {
     /// surface mesh that is not Delaunay enough for boundary recovery).
     #[error("{message}")]
     Refinable { message: String, faces: Vec<u32> },
+    /// A volume's tetrahedralization failed (other than for a boundary
+    /// that is not Delaunay enough, which is [`MeshError::Refinable`]).
+    #[error("{0}")]
+    Volume(#[from] crate::volume::Connect3dError),
+    /// A volume's faces do not close it.
+    #[error("{0}")]
+    Shell(#[from] crate::volume::ShellError),
     /// The finished mesh failed [`crate::verify::verify`]: nothing may be
     /// written.
     #[error("{0}")]

@@ -1,6 +1,6 @@
 //! Node → element tables, shared by the planar improvement
-//! ([`crate::face::improve`]) and the volume passes ([`crate::volume::tet::sliver`],
-//! [`crate::volume::tet::polish`], [`crate::volume::tet::flip`]).
+//! ([`crate::face::improve`]) and the volume passes (through
+//! [`crate::volume::tet::star::node_tets`]).
 
 /// The elements around each of `n` nodes, as a compressed table: those of
 /// node v are `inc[start[v]..start[v + 1]]`, in increasing order. `index`

@@ -17,8 +17,9 @@
 //! - [`bubbles`]: the dimension-independent physics: forces (§4.2),
 //!   dynamics (§4.3–4.4), constraints (§4.5), population control (§4.7);
 //! - [`edge`], [`face`], [`volume`]: stage 1 placement (§4.1), packing and
-//!   connection of each dimension; [`volume::tet`]: the tetrahedral passes;
+//!   connection of each dimension; `volume::tet`: the tetrahedral passes;
 //! - [`engine`]: [`mesh_model`], meshing in the order of dimensions;
+//! - [`measure`]: the one definition of each element measure;
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality;
 //!   [`verify`]: the last check a mesh passes before it may be written.
 
@@ -30,6 +31,7 @@ pub mod error;
 pub mod face;
 pub mod geom;
 pub(crate) mod incidence;
+pub mod measure;
 pub mod mesh;
 pub mod model;
 pub mod options;

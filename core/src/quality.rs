@@ -33,6 +33,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::geom::{P3, V3};
+use crate::measure::clip01;
 use crate::mesh::Mesh;
 use crate::model::EntityRef;
 use crate::spacing::{Spacing, SpacingQuery};
@@ -504,8 +505,7 @@ fn triangle_shape(a: &P3, b: &P3, c: &P3) -> (f64, f64, f64, f64) {
     let aa = ang(&ab, &(-ca));
     let ab_ = ang(&bc, &(-ab));
     let ac = std::f64::consts::PI - aa - ab_;
-    let q = (lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc);
-    let q = clip01(q);
+    let q = crate::measure::triangle_radius_ratio(a, b, c);
     if is_degenerate(la, lb, lc, area) {
         // coincident or collinear corners: no meaningful third angle (π
         // minus two angles of π each gave −180°); report the limit shape
@@ -523,15 +523,6 @@ fn is_degenerate(la: f64, lb: f64, lc: f64, area: f64) -> bool {
     let longest = la.max(lb).max(lc);
     let proper = area > 4.0 * f64::EPSILON * longest * longest && la.min(lb).min(lc) > 0.0;
     !proper
-}
-
-/// Clips to [0, 1], mapping NaN to 0 (numpy: `nan_to_num(clip(x, 0, 1))`).
-fn clip01(x: f64) -> f64 {
-    if x.is_nan() {
-        0.0
-    } else {
-        x.clamp(0.0, 1.0)
-    }
 }
 
 fn triangle_quality(pos: &[P3], mesh: &Mesh, edges: &[(u64, u32)]) -> TriangleQuality {
@@ -612,36 +603,24 @@ fn triangle_quality(pos: &[P3], mesh: &Mesh, edges: &[(u64, u32)]) -> TriangleQu
 // --------------------------------------------------------------------------
 // tetrahedra
 
-/// Signed volume, radius ratio, smallest and largest dihedral (degrees).
+/// Signed volume, radius ratio, smallest and largest dihedral (degrees),
+/// from [`crate::measure`]: the radius ratio of an inverted tetrahedron is
+/// that of its mirror image (clipped to [0, 1], 0 when undefined), and a
+/// tetrahedron with a face of zero area has the smallest dihedral angle 0
+/// (undefined angles count as 0).
 fn tet_shape(p0: &P3, p1: &P3, p2: &P3, p3: &P3) -> (f64, f64, f64, f64) {
-    let (a, b, c) = (p1 - p0, p2 - p0, p3 - p0);
-    let (bxc, cxa, axb) = (b.cross(&c), c.cross(&a), a.cross(&b));
-    let six_v = a.dot(&bxc);
-    let v = six_v / 6.0;
-    // Face k opposite vertex k; outward for six_v > 0, flipped otherwise.
-    let sgn = if six_v >= 0.0 { 1.0 } else { -1.0 };
-    let normals = [
-        (p2 - p1).cross(&(p3 - p1)) * sgn,
-        (p3 - p0).cross(&(p2 - p0)) * sgn,
-        (p1 - p0).cross(&(p3 - p0)) * sgn,
-        (p2 - p0).cross(&(p1 - p0)) * sgn,
-    ];
-    let fa = normals.map(|n| n.norm());
-    let s = 0.5 * fa.iter().sum::<f64>();
-    let num = bxc * a.norm_squared() + cxa * b.norm_squared() + axb * c.norm_squared();
-    let q = clip01(108.0 * v * v / (s * num.norm()));
-    let unit = [0, 1, 2, 3].map(|i| normals[i] / fa[i]);
-    let (mut dmin, mut dmax) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (i, j) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
-        let cs = unit[i].dot(&unit[j]);
-        let mut d = (std::f64::consts::PI - cs.clamp(-1.0, 1.0).acos()) * DEG;
-        if d.is_nan() {
-            d = 0.0;
-        }
-        dmin = dmin.min(d);
-        dmax = dmax.max(d);
+    let v = crate::measure::tet_volume6(p0, p1, p2, p3) / 6.0;
+    let q = clip01(crate::measure::tet_radius_ratio(p0, p1, p2, p3).abs());
+    let (mut dmin, dmax) = crate::measure::dihedral_extremes(p0, p1, p2, p3);
+    let p = [p0, p1, p2, p3];
+    let zero_face = crate::measure::TET_FACES.iter().any(|f| {
+        let a2 = (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]])).norm();
+        a2.is_nan() || a2 <= 0.0
+    });
+    if zero_face || dmin.is_nan() {
+        dmin = 0.0;
     }
-    (v, q, dmin, dmax)
+    (v, q, dmin, if dmax.is_nan() { 0.0 } else { dmax })
 }
 
 fn tet_quality(pos: &[P3], mesh: &Mesh) -> TetQuality {

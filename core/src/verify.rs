@@ -29,9 +29,10 @@
 use std::collections::HashMap;
 
 use crate::geom::P3;
+use crate::measure::TET_FACES as FACE;
 use crate::mesh::Mesh;
 use crate::model::{EntityRef, Model};
-use crate::volume::connect::{c3, FACE};
+use crate::volume::connect::c3;
 
 /// Triangles with |cross product| ≤ this × diag² count as zero-area
 /// (meshcheck's threshold).
@@ -216,28 +217,57 @@ struct SegUse {
     tri: u32,
 }
 
-fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Result<(), CheckError> {
-    // segments of model edges -> the edge
-    let mut edge_of: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.lines.len());
-    for l in &mesh.lines {
-        edge_of.insert(key2(l.nodes[0], l.nodes[1]), l.entity.id);
-    }
-    // face uses of each edge: per face, and in all
-    let mut uses_total = vec![0u32; model.edges.len()];
-    let mut uses_in_face: HashMap<(u32, u32), u32> = HashMap::new();
-    for (fi, f) in model.faces.iter().enumerate() {
-        for u in f.loops.iter().flat_map(|l| l.edges.iter()) {
-            *uses_in_face.entry((fi as u32, u.edge)).or_default() += 1;
-            uses_total[u.edge as usize] += 1;
+/// How the model's faces use its edges: the edge of each segment of a
+/// model edge, and how many times each face (and all faces) use each edge.
+struct EdgeUses {
+    /// Segment (sorted node pair) of a model edge → the edge.
+    edge_of: HashMap<(u32, u32), u32>,
+    /// Edge → uses by all faces (an embedded edge counts twice).
+    total: Vec<u32>,
+    /// (face, edge) → uses by that face.
+    in_face: HashMap<(u32, u32), u32>,
+}
+
+impl EdgeUses {
+    fn of(model: &Model, mesh: &Mesh) -> EdgeUses {
+        // segments of model edges -> the edge
+        let mut edge_of: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.lines.len());
+        for l in &mesh.lines {
+            edge_of.insert(key2(l.nodes[0], l.nodes[1]), l.entity.id);
         }
-        for &e in &f.embedded_edges {
-            *uses_in_face.entry((fi as u32, e)).or_default() += 2;
-            uses_total[e as usize] += 2;
+        // face uses of each edge: per face, and in all
+        let mut total = vec![0u32; model.edges.len()];
+        let mut in_face: HashMap<(u32, u32), u32> = HashMap::new();
+        for (fi, f) in model.faces.iter().enumerate() {
+            for u in f.loops.iter().flat_map(|l| l.edges.iter()) {
+                *in_face.entry((fi as u32, u.edge)).or_default() += 1;
+                total[u.edge as usize] += 1;
+            }
+            for &e in &f.embedded_edges {
+                *in_face.entry((fi as u32, e)).or_default() += 2;
+                total[e as usize] += 2;
+            }
+        }
+        EdgeUses {
+            edge_of,
+            total,
+            in_face,
         }
     }
-    let zero = ZERO_AREA * diag * diag;
-    let mut segs: HashMap<(u32, u32), Vec<SegUse>> =
-        HashMap::with_capacity(mesh.triangles.len() * 2);
+}
+
+/// Segment (sorted node pair) → its uses by triangles.
+type Segments = HashMap<(u32, u32), Vec<SegUse>>;
+
+/// The segments of the triangles (sorted node pair → its uses) and each
+/// triangle's unit normal; an error for a triangle that repeats a node or
+/// has zero area (below `zero`, twice the area).
+fn triangle_segments(
+    model: &Model,
+    mesh: &Mesh,
+    zero: f64,
+) -> Result<(Segments, Vec<nalgebra::Vector3<f64>>), CheckError> {
+    let mut segs: Segments = HashMap::with_capacity(mesh.triangles.len() * 2);
     let mut normals: Vec<nalgebra::Vector3<f64>> = Vec::with_capacity(mesh.triangles.len());
     for (ti, t) in mesh.triangles.iter().enumerate() {
         let [a, b, c] = t.nodes;
@@ -254,7 +284,7 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
         let (pa, pb, pc) = (pos(mesh, a), pos(mesh, b), pos(mesh, c));
         let cr = (pb - pa).cross(&(pc - pa));
         let n = cr.norm();
-        if !(n > zero) {
+        if n.is_nan() || n <= zero {
             return Err(CheckError {
                 also: vec![],
                 refinable: true,
@@ -272,11 +302,19 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
             });
         }
     }
+    Ok((segs, normals))
+}
+
+/// The face checks of the module docs; `orientation`: also orientation and
+/// folds.
+fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Result<(), CheckError> {
+    let uses = EdgeUses::of(model, mesh);
+    let (segs, normals) = triangle_segments(model, mesh, ZERO_AREA * diag * diag)?;
     // every segment of an edge that bounds a face is in some triangle
     for l in &mesh.lines {
         let e = l.entity.id;
         let key = key2(l.nodes[0], l.nodes[1]);
-        if uses_total.get(e as usize).copied().unwrap_or(0) > 0 && !segs.contains_key(&key) {
+        if uses.total.get(e as usize).copied().unwrap_or(0) > 0 && !segs.contains_key(&key) {
             let edge = EntityRef::new(1, e);
             return Err(CheckError {
                 also: vec![],
@@ -285,7 +323,7 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
                 what: format!(
                     "a segment of {} lies in no triangle, but {} face(s) use the edge",
                     model.describe(edge),
-                    uses_total[e as usize]
+                    uses.total[e as usize]
                 ),
                 at: mid(mesh, key.0, key.1),
             });
@@ -298,114 +336,150 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
             break;
         }
         for (&(p, q), us) in &segs {
-            let face0 = EntityRef::new(2, us[0].face);
-            let err = |what: String, also: Vec<EntityRef>, refinable: bool| CheckError {
-                also,
-                refinable,
-                entity: face0,
-                what,
-                at: mid(mesh, p, q),
-            };
-            match edge_of.get(&(p, q)) {
-                Some(&e) => {
-                    let edge = EntityRef::new(1, e);
-                    // per face: as many triangles as the face uses the edge
-                    let mut per_face: Vec<(u32, u32)> = Vec::new();
-                    for u in us {
-                        match per_face.iter_mut().find(|(f, _)| *f == u.face) {
-                            Some((_, n)) => *n += 1,
-                            None => per_face.push((u.face, 1)),
-                        }
-                    }
-                    for &(f, n) in &per_face {
-                        let want = uses_in_face.get(&(f, e)).copied().unwrap_or(0);
-                        if n != want {
-                            let fe = EntityRef::new(2, f);
-                            return Err(CheckError {
-                                also: vec![],
-                                refinable: true,
-                                entity: fe,
-                                what: if want == 0 {
-                                    format!(
-                                    "{} has a triangle on a segment of {}, which does not bound it",
-                                    model.describe(fe),
-                                    model.describe(edge)
-                                )
-                                } else {
-                                    format!(
-                                    "a segment of {} lies in {n} triangle(s) of {}, which uses the edge {want} time(s)",
-                                    model.describe(edge),
-                                    model.describe(fe)
-                                )
-                                },
-                                at: mid(mesh, p, q),
-                            });
-                        }
-                    }
-                    let total = us.len() as u32;
-                    if total != uses_total[e as usize] {
+            let seg = Segment { p, q, uses: us };
+            check_segment(model, mesh, &uses, &normals, seg, orientation_pass)?;
+        }
+    }
+    Ok(())
+}
+
+/// One segment of the triangles: its nodes and its uses.
+struct Segment<'a> {
+    p: u32,
+    q: u32,
+    uses: &'a [SegUse],
+}
+
+/// The checks of one segment: on a model edge, the counts per face and in
+/// all and (in the orientation pass) the orientation across faces; inside
+/// a face, one face only, two triangles, and (in the orientation pass)
+/// consistent orientation and no fold.
+fn check_segment(
+    model: &Model,
+    mesh: &Mesh,
+    uses: &EdgeUses,
+    normals: &[nalgebra::Vector3<f64>],
+    seg: Segment<'_>,
+    orientation_pass: bool,
+) -> Result<(), CheckError> {
+    let Segment { p, q, uses: us } = seg;
+    let face0 = EntityRef::new(2, us[0].face);
+    let err = |what: String, also: Vec<EntityRef>, refinable: bool| CheckError {
+        also,
+        refinable,
+        entity: face0,
+        what,
+        at: mid(mesh, p, q),
+    };
+    match uses.edge_of.get(&(p, q)) {
+        Some(&e) => {
+            let edge = EntityRef::new(1, e);
+            // per face: as many triangles as the face uses the edge
+            let mut per_face: Vec<(u32, u32)> = Vec::new();
+            for u in us {
+                match per_face.iter_mut().find(|(f, _)| *f == u.face) {
+                    Some((_, n)) => *n += 1,
+                    None => per_face.push((u.face, 1)),
+                }
+            }
+            for &(f, n) in &per_face {
+                let want = uses.in_face.get(&(f, e)).copied().unwrap_or(0);
+                if n != want {
+                    let fe = EntityRef::new(2, f);
+                    return Err(CheckError {
+                        also: vec![],
+                        refinable: true,
+                        entity: fe,
+                        what: if want == 0 {
+                            format!(
+                                "{} has a triangle on a segment of {}, which does not bound it",
+                                model.describe(fe),
+                                model.describe(edge)
+                            )
+                        } else {
+                            format!(
+                            "a segment of {} lies in {n} triangle(s) of {}, which uses the edge {want} time(s)",
+                            model.describe(edge),
+                            model.describe(fe)
+                        )
+                        },
+                        at: mid(mesh, p, q),
+                    });
+                }
+            }
+            let total = us.len() as u32;
+            if total != uses.total[e as usize] {
+                return Err(err(format!(
+                "a segment of {} lies in {total} triangle(s) but the model's faces use the edge {} time(s)",
+                model.describe(edge),
+                uses.total[e as usize]
+            ), us.iter().map(|u| EntityRef::new(2, u.face)).chain([edge]).collect(), true));
+            }
+            if orientation_pass && us.len() == 2 && us[0].ascending == us[1].ascending {
+                return Err(err(
+                    format!(
+                "the triangles of {} and {} on either side of {} are oriented inconsistently",
+                model.describe(EntityRef::new(2, us[0].face)),
+                model.describe(EntityRef::new(2, us[1].face)),
+                model.describe(edge)
+            ),
+                    vec![],
+                    false,
+                ));
+            }
+        }
+        None => {
+            if let Some(u) = us.iter().find(|u| u.face != us[0].face) {
+                return Err(err(
+                    format!(
+                "{} and {} share a mesh edge that is on no model edge (the faces overlap or touch)",
+                model.describe(face0),
+                model.describe(EntityRef::new(2, u.face))
+            ),
+                    us.iter().map(|u| EntityRef::new(2, u.face)).collect(),
+                    true,
+                ));
+            }
+            match us.len() {
+                1 => {
+                    return Err(err(
+                        format!(
+                            "{} has a gap: a mesh edge inside it lies in one triangle only",
+                            model.describe(face0)
+                        ),
+                        vec![],
+                        true,
+                    ))
+                }
+                2 if orientation_pass => {
+                    if us[0].ascending == us[1].ascending {
                         return Err(err(format!(
-                        "a segment of {} lies in {total} triangle(s) but the model's faces use the edge {} time(s)",
-                        model.describe(edge),
-                        uses_total[e as usize]
-                    ), us.iter().map(|u| EntityRef::new(2, u.face)).chain([edge]).collect(), true));
-                    }
-                    if orientation_pass && us.len() == 2 && us[0].ascending == us[1].ascending {
-                        return Err(err(format!(
-                        "the triangles of {} and {} on either side of {} are oriented inconsistently",
-                        model.describe(EntityRef::new(2, us[0].face)),
-                        model.describe(EntityRef::new(2, us[1].face)),
-                        model.describe(edge)
+                        "{} is not consistently oriented: two neighbouring triangles run the same way along their shared edge",
+                        model.describe(face0)
                     ), vec![], false));
                     }
+                    let (n0, n1) = (normals[us[0].tri as usize], normals[us[1].tri as usize]);
+                    if n0.dot(&n1) < FOLD_COS {
+                        return Err(err(
+                            format!(
+                        "{} folds back onto itself: two neighbouring triangles face opposite ways",
+                        model.describe(face0)
+                    ),
+                            vec![],
+                            true,
+                        ));
+                    }
                 }
-                None => {
-                    if let Some(u) = us.iter().find(|u| u.face != us[0].face) {
-                        return Err(err(format!(
-                        "{} and {} share a mesh edge that is on no model edge (the faces overlap or touch)",
-                        model.describe(face0),
-                        model.describe(EntityRef::new(2, u.face))
-                    ), us.iter().map(|u| EntityRef::new(2, u.face)).collect(), true));
-                    }
-                    match us.len() {
-                        1 => {
-                            return Err(err(
-                                format!(
-                                    "{} has a gap: a mesh edge inside it lies in one triangle only",
-                                    model.describe(face0)
-                                ),
-                                vec![],
-                                true,
-                            ))
-                        }
-                        2 if orientation_pass => {
-                            if us[0].ascending == us[1].ascending {
-                                return Err(err(format!(
-                                "{} is not consistently oriented: two neighbouring triangles run the same way along their shared edge",
-                                model.describe(face0)
-                            ), vec![], false));
-                            }
-                            let (n0, n1) =
-                                (normals[us[0].tri as usize], normals[us[1].tri as usize]);
-                            if n0.dot(&n1) < FOLD_COS {
-                                return Err(err(format!(
-                                "{} folds back onto itself: two neighbouring triangles face opposite ways",
-                                model.describe(face0)
-                            ), vec![], true));
-                            }
-                        }
-                        2 => {}
-                        n => {
-                            return Err(err(
-                                format!(
-                                "{} is not a manifold: a mesh edge inside it lies in {n} triangles",
-                                model.describe(face0)
-                            ),
-                                vec![],
-                                true,
-                            ))
-                        }
-                    }
+                2 => {}
+                n => {
+                    return Err(err(
+                        format!(
+                            "{} is not a manifold: a mesh edge inside it lies in {n} triangles",
+                            model.describe(face0)
+                        ),
+                        vec![],
+                        true,
+                    ))
                 }
             }
         }

@@ -247,7 +247,8 @@ pub struct NodeField {
 /// empty list).
 pub fn read_with_node_data(path: &Path) -> Result<(Mesh, Vec<NodeField>), IoError> {
     let format = Format::from_path(path)?;
-    let parse: fn(&[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError> = match format {
+    type Parser = fn(&[u8]) -> Result<(Mesh, Vec<NodeField>), ParseError>;
+    let parse: Parser = match format {
         Format::Msh => msh::parse_with_node_data,
         Format::Vtu => vtu::parse_with_node_data,
         _ => return read_as(path, format).map(|m| (m, Vec::new())),
@@ -301,54 +302,9 @@ pub fn read_as(path: &Path, format: Format) -> Result<Mesh, IoError> {
 }
 
 /// Checks what the writers rely on: element indices in range, entity
-/// dimensions ≤ 3, finite coordinates.
+/// dimensions ≤ 3, finite coordinates ([`bubblemesh_core::measure::check_indices`]).
 fn validate(mesh: &Mesh) -> Result<(), String> {
-    let n = mesh.nodes.len();
-    if n > u32::MAX as usize {
-        return Err(format!("{n} nodes exceed the 32-bit index range"));
-    }
-    for (i, node) in mesh.nodes.iter().enumerate() {
-        if !node.pos.iter().all(|c| c.is_finite()) {
-            return Err(format!(
-                "node {i} has a non-finite coordinate ({}, {}, {})",
-                node.pos.x, node.pos.y, node.pos.z
-            ));
-        }
-        if node.entity.dim > 3 {
-            return Err(format!(
-                "node {i} is on an entity of dimension {}",
-                node.entity.dim
-            ));
-        }
-    }
-    fn check<const N: usize>(kind: &str, elems: &[Element<N>], n: usize) -> Result<(), String> {
-        for (i, e) in elems.iter().enumerate() {
-            if let Some(v) = e.nodes.iter().find(|&&v| v as usize >= n) {
-                return Err(format!(
-                    "{kind} {i} refers to node {v} but there are {n} nodes"
-                ));
-            }
-            if e.entity.dim > 3 {
-                return Err(format!(
-                    "{kind} {i} is on an entity of dimension {}",
-                    e.entity.dim
-                ));
-            }
-        }
-        Ok(())
-    }
-    check("line", &mesh.lines, n)?;
-    check("triangle", &mesh.triangles, n)?;
-    check("tetrahedron", &mesh.tetrahedra, n)?;
-    for e in &mesh.entities {
-        if e.entity.dim > 3 {
-            return Err(format!(
-                "entity {} has dimension {}",
-                e.entity.id, e.entity.dim
-            ));
-        }
-    }
-    Ok(())
+    bubblemesh_core::measure::check_indices(mesh).map_err(|e| e.to_string())
 }
 
 // ---------------------------------------------------------------------------
@@ -363,21 +319,8 @@ pub fn surface_triangles(mesh: &Mesh) -> Vec<Element<3>> {
         return mesh.triangles.clone();
     }
     // Face k is opposite vertex k; outward for a positively oriented tet.
-    const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
-    let mut faces: Vec<([u32; 3], u32, u8)> = Vec::with_capacity(4 * mesh.tetrahedra.len());
-    for (t, tet) in mesh.tetrahedra.iter().enumerate() {
-        for (k, f) in FACES.iter().enumerate() {
-            let mut key = f.map(|i| tet.nodes[i]);
-            key.sort_unstable();
-            faces.push((key, t as u32, k as u8));
-        }
-    }
-    faces.sort_unstable();
-    let mut boundary: Vec<(u32, u8)> = faces
-        .chunk_by(|a, b| a.0 == b.0)
-        .filter(|run| run.len() == 1)
-        .map(|run| (run[0].1, run[0].2))
-        .collect();
+    use bubblemesh_core::measure::{boundary_faces, TET_FACES as FACES};
+    let mut boundary = boundary_faces(mesh.tetrahedra.iter().map(|t| t.nodes));
     boundary.sort_unstable();
     boundary
         .into_iter()

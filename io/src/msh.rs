@@ -36,6 +36,11 @@ use crate::{complete_entities, entity_table, infer_node_entities, NodeField, Par
 
 /// Writes `mesh` as MSH 4.1 ASCII. The mesh must satisfy the [`Mesh`]
 /// invariants (element indices in range; [`crate::write`] checks this).
+///
+/// Longer than 150 lines on purpose: it writes the sections in file order
+/// ($MeshFormat, $Entities, $Nodes, $Elements) from tables built once at
+/// the top (entity tags and bounding boxes, nodes per entity), which every
+/// section reads; split, the pieces would pass those tables around.
 pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
     let table = entity_table(mesh);
     let index: HashMap<EntityRef, usize> = table

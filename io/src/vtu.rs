@@ -514,6 +514,12 @@ const VTK_MAX_TYPE: i64 = 81;
 
 type Parsed = (Mesh, Vec<NodeField>, Vec<String>);
 
+/// Parses a VTU file: points, cells (connectivity, offsets, types) and,
+/// with `node_data`, the point data arrays, with notes on what it skipped.
+///
+/// Longer than 150 lines on purpose: one pass over the XML elements in
+/// document order, whose state (the piece's counts, the arrays read so
+/// far) every element's branch reads and checks against.
 fn parse_impl(data: &[u8], node_data: bool) -> Result<Parsed, ParseError> {
     let s = as_text(data);
     let piece = collect(&s)?;

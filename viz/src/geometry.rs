@@ -1,7 +1,6 @@
 //! Per-element measures and the faces a picture draws.
 //!
-//! The measures use the definitions of `bubblemesh_core::quality` (which
-//! keeps its per-element functions private): triangle radius ratio
+//! The measures are [`bubblemesh_core::measure`]'s: triangle radius ratio
 //! q = 2 r_in / r_circ, tetrahedron radius ratio q = 3 r_in / r_circ, both
 //! clipped to [0, 1] with 0 when undefined; angles in degrees.
 
@@ -11,8 +10,7 @@ use bubblemesh_core::{P3, V3};
 
 /// Radius ratio q = 2 r_in / r_circ of a triangle (1: equilateral).
 pub fn triangle_q(a: &P3, b: &P3, c: &P3) -> f64 {
-    let (la, lb, lc) = ((c - b).norm(), (a - c).norm(), (b - a).norm());
-    clip01((lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc))
+    bubblemesh_core::measure::triangle_radius_ratio(a, b, c)
 }
 
 /// The three angles of a triangle, degrees (the third as 180° minus the
@@ -25,28 +23,16 @@ pub fn triangle_angles(a: &P3, b: &P3, c: &P3) -> [f64; 3] {
     [at_a, at_b, 180.0 - at_a - at_b]
 }
 
-/// Radius ratio q = 3 r_in / r_circ of a tetrahedron (1: regular).
-pub fn tet_q(p: &[P3; 4]) -> f64 {
-    let (a, b, c) = (p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-    let v = a.dot(&b.cross(&c)) / 6.0;
-    let area = |x: &P3, y: &P3, z: &P3| 0.5 * (y - x).cross(&(z - x)).norm();
-    let s = area(&p[1], &p[2], &p[3])
-        + area(&p[0], &p[2], &p[3])
-        + area(&p[0], &p[1], &p[3])
-        + area(&p[0], &p[1], &p[2]);
-    let n = b.cross(&c) * a.norm_squared()
-        + c.cross(&a) * b.norm_squared()
-        + a.cross(&b) * c.norm_squared();
-    clip01(108.0 * v * v / (s * n.norm()))
+/// Radius ratio q = 3 r_in / r_circ of a tetrahedron (1: regular), of
+/// either orientation, clipped to [0, 1] (0 when flat).
+pub fn tet_radius_ratio(p: &[P3; 4]) -> f64 {
+    use bubblemesh_core::measure::{clip01, tet_radius_ratio};
+    clip01(tet_radius_ratio(&p[0], &p[1], &p[2], &p[3]).abs())
 }
 
-fn clip01(x: f64) -> f64 {
-    if x.is_nan() {
-        0.0
-    } else {
-        x.clamp(0.0, 1.0)
-    }
-}
+/// The former name of [`tet_radius_ratio`], kept for callers not yet
+/// renamed.
+pub use self::tet_radius_ratio as tet_q;
 
 /// A face a picture draws: three node ids and the element it belongs to.
 #[derive(Clone, Copy, Debug)]
@@ -75,30 +61,17 @@ pub fn draw_faces(mesh: &Mesh) -> Vec<DrawFace> {
     boundary_faces(mesh.tetrahedra.iter().map(|t| t.nodes).enumerate())
 }
 
-/// Faces that occur in exactly one of the given tetrahedra.
+/// Faces that occur in exactly one of the given tetrahedra
+/// ([`bubblemesh_core::measure::boundary_faces`]), each with the position
+/// of its tetrahedron in the sequence.
 pub fn boundary_faces(tets: impl Iterator<Item = (usize, [u32; 4])>) -> Vec<DrawFace> {
-    const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
-    let mut faces: Vec<([u32; 3], u32, u8)> = Vec::new();
-    let mut nodes_of: Vec<[u32; 4]> = Vec::new();
-    for (k, (t, nodes)) in tets.enumerate() {
-        let _ = t;
-        nodes_of.push(nodes);
-        for (f, idx) in FACES.iter().enumerate() {
-            let mut key = idx.map(|i| nodes[i]);
-            key.sort_unstable();
-            faces.push((key, k as u32, f as u8));
-        }
-    }
-    faces.sort_unstable();
-    faces
-        .chunk_by(|a, b| a.0 == b.0)
-        .filter(|run| run.len() == 1)
-        .map(|run| {
-            let (_, k, f) = run[0];
-            DrawFace {
-                nodes: FACES[f as usize].map(|i| nodes_of[k as usize][i]),
-                element: k,
-            }
+    use bubblemesh_core::measure::TET_FACES;
+    let nodes_of: Vec<[u32; 4]> = tets.map(|(_, nodes)| nodes).collect();
+    bubblemesh_core::measure::boundary_faces(nodes_of.iter().copied())
+        .into_iter()
+        .map(|(k, f)| DrawFace {
+            nodes: TET_FACES[f as usize].map(|i| nodes_of[k as usize][i]),
+            element: k,
         })
         .collect()
 }
@@ -149,7 +122,7 @@ impl Measures {
             m.q = mesh
                 .tetrahedra
                 .iter()
-                .map(|t| tet_q(&t.nodes.map(|i| pos[i as usize])))
+                .map(|t| tet_radius_ratio(&t.nodes.map(|i| pos[i as usize])))
                 .collect();
             for (e, t) in mesh.tetrahedra.iter().enumerate() {
                 for i in 0..4 {
@@ -255,7 +228,7 @@ mod tests {
             P3::new(0.0, 1.0, s),
             P3::new(0.0, -1.0, s),
         ];
-        assert!((tet_q(&t) - 1.0).abs() < 1e-12);
+        assert!((tet_radius_ratio(&t) - 1.0).abs() < 1e-12);
         // degenerate: zero
         assert_eq!(triangle_q(&a, &b, &P3::new(2.0, 0.0, 0.0)), 0.0);
     }

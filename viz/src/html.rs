@@ -22,7 +22,7 @@ use bubblemesh_core::quality::QualityReport;
 use bubblemesh_core::{P3, V3};
 
 use crate::color;
-use crate::geometry::{tet_q, triangle_q};
+use crate::geometry::{tet_radius_ratio, triangle_q};
 use crate::picture::{xml_escape, ColorBy};
 use crate::view::auto_view;
 use crate::VizError;
@@ -128,7 +128,7 @@ fn mesh_json(mesh: &Mesh, color: ColorBy, view: V3, flat: bool) -> String {
     let kq: Vec<f64> = mesh
         .tetrahedra
         .iter()
-        .map(|t| tet_q(&t.nodes.map(|i| pos[i as usize])))
+        .map(|t| tet_radius_ratio(&t.nodes.map(|i| pos[i as usize])))
         .collect();
     push_array(&mut s, "tetQ", &kq, |s, v| push_num(s, v, 4));
     s.push(',');
@@ -274,12 +274,7 @@ pub fn viewer(mesh: &Mesh, o: &ViewerOptions) -> Result<String, VizError> {
         .flat_map(|t| t.nodes.iter())
         .chain(mesh.tetrahedra.iter().flat_map(|t| t.nodes.iter()))
         .any(|&v| v as usize >= n);
-    if bad
-        || mesh
-            .nodes
-            .iter()
-            .any(|p| !p.pos.iter().all(|c| c.is_finite()))
-    {
+    if bad || bubblemesh_core::measure::first_non_finite(mesh).is_some() {
         return Err(VizError::InvalidMesh(
             "an element refers to a missing node or a node is not finite".into(),
         ));
@@ -617,3 +612,26 @@ sync();
 buildFaces();
 draw();
 })();"###;
+
+#[cfg(test)]
+mod tests {
+    /// The viewer's JavaScript keeps its own tetrahedron face table; it
+    /// must be the engine's ([`bubblemesh_core::measure::TET_FACES`]), or
+    /// the viewer would draw inward faces.
+    #[test]
+    fn the_viewer_face_table_is_the_engines() {
+        let start = super::SCRIPT.find("var TF = ").expect("TF in the script") + 9;
+        let end = start + super::SCRIPT[start..].find(';').expect("TF ends");
+        let digits: Vec<usize> = super::SCRIPT[start..end]
+            .chars()
+            .filter_map(|c| c.to_digit(10))
+            .map(|d| d as usize)
+            .collect();
+        let want: Vec<usize> = bubblemesh_core::measure::TET_FACES
+            .iter()
+            .flatten()
+            .copied()
+            .collect();
+        assert_eq!(digits, want);
+    }
+}

@@ -20,7 +20,7 @@ use bubblemesh_core::model::EntityRef;
 use bubblemesh_core::{P3, V3};
 
 use crate::color::{self, Rgb};
-use crate::geometry::{draw_faces, tet_q, triangle_q};
+use crate::geometry::{draw_faces, tet_radius_ratio, triangle_q};
 use crate::view::{auto_view, Projection};
 use crate::VizError;
 
@@ -126,29 +126,17 @@ struct Scene {
 }
 
 fn check_mesh(mesh: &Mesh) -> Result<(), VizError> {
-    let n = mesh.nodes.len();
-    if let Some((i, _)) = mesh
-        .nodes
-        .iter()
-        .enumerate()
-        .find(|(_, p)| !p.pos.iter().all(|c| c.is_finite()))
-    {
+    use bubblemesh_core::measure::{first_missing_node, first_non_finite};
+    if let Some(i) = first_non_finite(mesh) {
         return Err(VizError::InvalidMesh(format!(
             "node {i} has a non-finite coordinate"
         )));
     }
-    let bad = mesh.lines.iter().flat_map(|e| e.nodes.iter()).chain(
-        mesh.triangles
-            .iter()
-            .flat_map(|e| e.nodes.iter())
-            .chain(mesh.tetrahedra.iter().flat_map(|e| e.nodes.iter())),
-    );
-    for &v in bad {
-        if v as usize >= n {
-            return Err(VizError::InvalidMesh(format!(
-                "an element refers to node {v} but there are {n} nodes"
-            )));
-        }
+    if let Some(v) = first_missing_node(mesh) {
+        let n = mesh.nodes.len();
+        return Err(VizError::InvalidMesh(format!(
+            "an element refers to node {v} but there are {n} nodes"
+        )));
     }
     Ok(())
 }
@@ -170,6 +158,13 @@ fn entity_name(mesh: &Mesh, e: EntityRef) -> String {
         .unwrap_or_else(|| e.to_string())
 }
 
+/// The scene of a picture: the fit of the model into the image, then the
+/// faces, lines and bubbles as primitives sorted back to front, and the
+/// legend.
+///
+/// Longer than 150 lines on purpose: every primitive is placed with the
+/// same projection, fit (scale, offsets) and view flags, which the phases
+/// would otherwise pass around in long argument lists.
 fn build(mesh: &Mesh, o: &PictureOptions) -> Result<Scene, VizError> {
     check_mesh(mesh)?;
     if let Some(b) = &o.bubbles {
@@ -248,7 +243,7 @@ fn build(mesh: &Mesh, o: &PictureOptions) -> Result<Scene, VizError> {
     let elem_q: Vec<f64> = if mesh.triangles.is_empty() {
         mesh.tetrahedra
             .iter()
-            .map(|t| tet_q(&t.nodes.map(|i| pos[i as usize])))
+            .map(|t| tet_radius_ratio(&t.nodes.map(|i| pos[i as usize])))
             .collect()
     } else {
         mesh.triangles

@@ -149,21 +149,34 @@ struct Series<'a> {
     points: Vec<(f64, f64)>,
 }
 
-/// A line chart in the box (left, top, w, h) with its own y range (from the
-/// data; through zero when `zero`), a y label and a key on the right.
-#[allow(clippy::too_many_arguments)]
-fn line_chart(
-    s: &mut String,
+/// Where a line chart goes and how its axes read.
+struct ChartBox<'a> {
+    /// The box (left, top, width, height) in SVG units.
     left: f64,
     top: f64,
     w: f64,
     h: f64,
+    /// The x range.
     x: (f64, f64),
-    series: &[Series],
-    xlabel: &str,
-    ylabel: &str,
+    xlabel: &'a str,
+    ylabel: &'a str,
+    /// Whether the y range must include zero.
     zero: bool,
-) {
+}
+
+/// A line chart in the box with its own y range (from the data; through
+/// zero when `zero`), a y label and a key on the right.
+fn line_chart(s: &mut String, chart: ChartBox<'_>, series: &[Series]) {
+    let ChartBox {
+        left,
+        top,
+        w,
+        h,
+        x,
+        xlabel,
+        ylabel,
+        zero,
+    } = chart;
     let ys = series
         .iter()
         .flat_map(|q| q.points.iter().map(|p| p.1))
@@ -290,18 +303,17 @@ pub fn energy(faces: &[FaceEnergy]) -> String {
         ];
         for (r, (which, ylabel, zero)) in rows.iter().enumerate() {
             let list: Vec<Series> = which.iter().map(|&i| series(smp, i)).collect();
-            line_chart(
-                &mut s,
+            let chart = ChartBox {
                 left,
-                top + 28.0 + ROW * r as f64,
+                top: top + 28.0 + ROW * r as f64,
                 w,
                 h,
-                (x0, x1),
-                &list,
-                if r == 2 { "time step" } else { "" },
+                x: (x0, x1),
+                xlabel: if r == 2 { "time step" } else { "" },
                 ylabel,
-                *zero,
-            );
+                zero: *zero,
+            };
+            line_chart(&mut s, chart, &list);
         }
     }
     let _ = writeln!(s, "</svg>");

@@ -75,7 +75,7 @@ pub fn auto_view(mesh: &Mesh) -> (V3, bool) {
         }
     }
     let (lmin, lmax) = (eig.eigenvalues[kmin], eig.eigenvalues[kmax]);
-    if !(lmax > 0.0) || lmin > 1e-12 * lmax {
+    if lmax.is_nan() || lmax <= 0.0 || lmin > 1e-12 * lmax {
         return (oblique, false);
     }
     let mut normal: V3 = eig.eigenvectors.column(kmin).into_owned();

@@ -8,9 +8,9 @@ use std::collections::HashMap;
 
 use bubblemesh_analytic::parse_domain;
 use bubblemesh_core::engine::VolumeLattice;
+use bubblemesh_core::measure::tet_radius_ratio as radius_ratio;
 use bubblemesh_core::quality::analyse;
 use bubblemesh_core::spacing::{Constant, Expr};
-use bubblemesh_core::volume::tet::sliver::radius_ratio;
 use bubblemesh_core::{mesh_model, Mesh, Options, Spacing};
 
 const CUBE: &str = r#"
@@ -128,8 +128,8 @@ fn cube_uniform_is_valid_sliver_free_and_follows_the_spacing() {
     let t = r.tets.expect("tets");
     assert_eq!(t.inverted, 0);
     // 0.551 / 0.910 measured (at d = 0.1 the BCC start is given up for
-    // FCC: 4.9 % of its tetrahedra are poor; issue 5 asks ≥ 0.90 / 0.45,
-    // [25°, 140°])
+    // FCC: 4.9 % of its tetrahedra are poor; the volume-quality bounds are
+    // ≥ 0.90 / 0.45, [25°, 140°])
     assert!(t.q_min > 0.5, "min radius ratio {}", t.q_min);
     assert!(t.q_mean > 0.90, "mean radius ratio {}", t.q_mean);
     assert!(t.dihedral_min > 25.0, "min dihedral {}", t.dihedral_min);

@@ -22,6 +22,7 @@
 //! (`orient3d` exact), the tetrahedra's boundary faces are exactly the
 //! boundary triangles, each used once.
 
+use crate::measure::{triangle_circumball as circumball, TET_FACES as FACE};
 use std::collections::{HashMap, HashSet};
 
 use robust::Coord3D;
@@ -47,7 +48,7 @@ pub enum Connect3dError {
         y: f64,
         z: f64,
         /// Indices into the boundary triangles of those missing (at most
-        /// [`MAX_REPORTED`]), so that the faces they belong to can be
+        /// `MAX_REPORTED`), so that the faces they belong to can be
         /// meshed finer.
         triangles: Vec<u32>,
     },
@@ -69,8 +70,6 @@ pub struct VolumeConnection {
     pub kept: Vec<bool>,
     /// Tetrahedra (input point indices), positively oriented.
     pub tets: Vec<[u32; 4]>,
-    /// Rebuilds needed for boundary recovery.
-    pub recovery_rounds: usize,
     /// Free points removed for boundary recovery.
     pub removed: usize,
 }
@@ -87,11 +86,6 @@ fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
     t.sort_unstable();
     t
 }
-
-/// Tet face `k` (opposite corner k), oriented so that corner k sees it
-/// counter-clockwise... i.e. with its normal pointing away from corner k
-/// when the tet is positive.
-pub(crate) const FACE: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
 /// The boundary triangle (index into the boundary, looked up in `bset`)
 /// that is face `f` of tetrahedron `t`, if any. Only a face of three
@@ -260,7 +254,6 @@ pub fn connect_volume(
         return Ok(VolumeConnection {
             kept,
             tets: out,
-            recovery_rounds: round,
             removed,
         });
     }
@@ -305,20 +298,6 @@ fn remove_blockers(
             *removed += 1;
         }
     }
-}
-
-/// The circumcentre and circumradius of a triangle (in its plane).
-pub(crate) fn circumball(a: &P3, b: &P3, c: &P3) -> (P3, f64) {
-    let (ab, ac) = (b - a, c - a);
-    let n = ab.cross(&ac);
-    let nn = n.norm_squared();
-    if nn == 0.0 {
-        let m = P3::from((a.coords + b.coords + c.coords) / 3.0);
-        let r = (a - m).norm().max((b - m).norm()).max((c - m).norm());
-        return (m, r);
-    }
-    let off = (n.cross(&ab) * ac.norm_squared() + ac.cross(&n) * ab.norm_squared()) / (2.0 * nn);
-    (a + off, off.norm())
 }
 
 /// Marks the tetrahedra inside the boundary: flood from the inner side of

@@ -77,7 +77,7 @@ impl Voxels {
         // voxels about one edge wide, at most 8 per triangle and 8M in all
         let mut h = edge / tris.len() as f64;
         let cap = ((8 * tris.len()).max(64) as f64).min(8e6);
-        if !(h > 0.0) {
+        if h.is_nan() || h <= 0.0 {
             return None;
         }
         // one voxel of margin on every side so the border is outside
@@ -160,7 +160,7 @@ impl Voxels {
         let mut c = [0usize; 3];
         for a in 0..3 {
             let x = (p[a] - self.lo[a]) * self.inv_h;
-            if !(x >= 0.0) || x as usize >= self.dims[a] {
+            if x.is_nan() || x < 0.0 || x as usize >= self.dims[a] {
                 return None;
             }
             c[a] = x as usize;
@@ -227,7 +227,7 @@ impl Shell {
         let mut h = 2.0 * size / kept.len() as f64;
         let ext = [hi[0] - lo[0], hi[1] - lo[1]];
         let max_cells = (4 * kept.len()).max(16) as f64;
-        if !(h > 0.0) {
+        if h.is_nan() || h <= 0.0 {
             h = ext[0].max(ext[1]).max(1e-300);
         }
         while ((ext[0] / h).floor() + 1.0) * ((ext[1] / h).floor() + 1.0) > max_cells {
@@ -393,9 +393,29 @@ impl Shell {
 /// component outward (a component nested inside an odd number of others,
 /// a void, points into itself).
 ///
+/// Why a set of triangles is not a closed shell.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShellError {
+    /// A mesh edge used by other than two triangles: the shell is open or
+    /// non-manifold there.
+    #[error(
+        "the boundary is not closed: the mesh edge ({:.6}, {:.6}, {:.6})–({:.6}, {:.6}, {:.6}) \
+         belongs to {triangles} triangle(s), not 2",
+        a.x, a.y, a.z, b.x, b.y, b.z
+    )]
+    NotClosed {
+        /// The edge's ends.
+        a: P3,
+        /// The edge's other end.
+        b: P3,
+        /// How many triangles use it.
+        triangles: usize,
+    },
+}
+
 /// Returns an error naming an edge used by other than two triangles
 /// (the shell is open or non-manifold there).
-pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), String> {
+pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), ShellError> {
     let key = |a: u32, b: u32| if a < b { (a, b) } else { (b, a) };
     let mut by_edge: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (ti, t) in tris.iter().enumerate() {
@@ -408,17 +428,11 @@ pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), String> {
     }
     if let Some((e, ts)) = by_edge.iter().find(|(_, v)| v.len() != 2) {
         let (a, b) = (pts[e.0 as usize], pts[e.1 as usize]);
-        return Err(format!(
-            "the boundary is not closed: the mesh edge ({:.6}, {:.6}, {:.6})–({:.6}, {:.6}, {:.6}) \
-             belongs to {} triangle(s), not 2",
-            a.x,
-            a.y,
-            a.z,
-            b.x,
-            b.y,
-            b.z,
-            ts.len()
-        ));
+        return Err(ShellError::NotClosed {
+            a,
+            b,
+            triangles: ts.len(),
+        });
     }
     let n = tris.len();
     let mut comp = vec![u32::MAX; n];
@@ -495,7 +509,8 @@ pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), String> {
 }
 
 /// Volume enclosed by outward-oriented closed shells (divergence theorem).
-pub fn enclosed_volume(pts: &[P3], tris: &[[u32; 3]]) -> f64 {
+#[cfg(test)]
+fn enclosed_volume(pts: &[P3], tris: &[[u32; 3]]) -> f64 {
     tris.iter()
         .map(|t| {
             let [a, b, c] = t.map(|k| pts[k as usize].coords);
@@ -602,7 +617,7 @@ mod tests {
     fn an_open_shell_is_refused() {
         let (pts, mut tris) = cube();
         tris.pop();
-        let err = orient_outward(&pts, &mut tris).unwrap_err();
+        let err = orient_outward(&pts, &mut tris).unwrap_err().to_string();
         assert!(err.contains("not closed"), "{err}");
     }
 }

@@ -5,7 +5,7 @@
 //! algorithms for the topological improvement of tetrahedral meshes").
 //!
 //! Two goals: [`raise_worst`] for the sliver pass (a flip must raise the
-//! worst [`objective`](crate::volume::tet::sliver::objective) of the tetrahedra it
+//! worst [`objective`](super::star::objective) of the tetrahedra it
 //! replaces) and [`raise_mean`] for the polish (a flip must raise the
 //! mesh's mean radius ratio without a new tetrahedron below
 //! [`TARGET_Q`]). Invariants: every new tetrahedron is positively oriented
@@ -14,17 +14,19 @@
 
 use crate::geom::{P3, V3};
 
-use crate::volume::tet::sliver::{objective_of as tet_q, radius_ratio_of, FACE3, TARGET_Q};
+use super::mesh::TetMesh;
+use super::star::{node_tets, objective_of, TARGET_Q};
+use crate::measure::{orient3d, tet_radius_ratio_of, TET_FACES};
 
-/// A tetrahedral mesh being improved: tets with a dead flag and their
-/// [`objective`](crate::volume::tet::sliver::objective) (`qv`, kept current: nodes
+/// The state of a flip sweep over a tetrahedral mesh: tets with a dead flag and their
+/// [`objective`](super::star::objective) (`qv`, kept current: nodes
 /// never move here), and per node the tets around it: the initial ones in
 /// a compressed table (`start`, `csr`), those added by flips in `extra`;
 /// dead ones are skipped when read.
 ///
 /// Why not a `Vec` per node: building 470k of them (case K) cost more than
 /// the flips it serves; flips touch a few thousand nodes.
-struct TetMesh<'a> {
+struct FlipState<'a> {
     pos: &'a [P3],
     tets: Vec<[u32; 4]>,
     qv: Vec<f64>,
@@ -34,11 +36,11 @@ struct TetMesh<'a> {
     extra: std::collections::HashMap<u32, Vec<u32>>,
 }
 
-impl<'a> TetMesh<'a> {
+impl<'a> FlipState<'a> {
     /// `qv[i]` must be the objective of `tets[i]`.
     fn new(pos: &'a [P3], tets: Vec<[u32; 4]>, qv: Vec<f64>) -> Self {
-        let (start, csr) = crate::volume::tet::sliver::node_tets(pos.len(), &tets);
-        TetMesh {
+        let (start, csr) = node_tets(pos.len(), &tets);
+        FlipState {
             pos,
             dead: vec![false; tets.len()],
             tets,
@@ -50,7 +52,7 @@ impl<'a> TetMesh<'a> {
     }
 
     fn q(&self, t: &[u32; 4]) -> f64 {
-        tet_q(self.pos, t)
+        objective_of(self.pos, t)
     }
 
     fn remove(&mut self, ti: u32) {
@@ -84,8 +86,8 @@ impl<'a> TetMesh<'a> {
 
     /// Sign of det(b−a, c−a, d−a) (exact).
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> f64 {
-        let [a, b, c, d] = [a, b, c, d].map(|k| crate::volume::connect::c3(&self.pos[k as usize]));
-        -robust::orient3d(a, b, c, d)
+        let [a, b, c, d] = [a, b, c, d].map(|k| self.pos[k as usize]);
+        -orient3d(&a, &b, &c, &d)
     }
 
     /// Removes the interior edge (d, e) if a re-triangulation of its ring
@@ -280,7 +282,7 @@ impl<'a> TetMesh<'a> {
 /// What a flip must improve to be accepted.
 #[derive(Clone, Copy, Debug)]
 enum Goal {
-    /// The worst [`objective`](crate::volume::tet::sliver::objective) of the
+    /// The worst [`objective`](super::star::objective) of the
     /// tetrahedra it replaces must rise.
     Worst,
     /// The mesh's mean radius ratio must rise: the new tetrahedra's sum of
@@ -295,8 +297,8 @@ impl Goal {
     /// radius ratio (what the mean measures) for `Mean`.
     fn value(self, pos: &[P3], t: &[u32; 4]) -> f64 {
         match self {
-            Goal::Worst => tet_q(pos, t),
-            Goal::Mean { .. } => radius_ratio_of(pos, t),
+            Goal::Worst => objective_of(pos, t),
+            Goal::Mean { .. } => tet_radius_ratio_of(pos, t),
         }
     }
 
@@ -319,13 +321,29 @@ impl Goal {
     }
 }
 
+/// The flips' tuning.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FlipParams {
+    /// Sweeps of [`raise_worst`] (it stops earlier when a sweep flips
+    /// nothing).
+    pub worst_sweeps: usize,
+}
+
+impl Default for FlipParams {
+    fn default() -> Self {
+        FlipParams { worst_sweeps: 4 }
+    }
+}
+
 /// Edge removals and 2-3 flips around every tetrahedron whose
-/// [`objective`](crate::volume::tet::sliver::objective) is below [`TARGET_Q`], each
+/// [`objective`](super::star::objective) is below [`TARGET_Q`], each
 /// accepted only when it raises the worst objective of the tetrahedra it
-/// replaces (so it terminates); up to 4 sweeps. `qs[i]` is the objective
-/// of `tets[i]`, on entry and on return. Returns the flips made.
-pub fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>, qs: &mut Vec<f64>) -> usize {
-    sweep(pos, tets, qs, Goal::Worst, TARGET_Q, 4)
+/// replaces (so it terminates); up to `params.worst_sweeps` sweeps. `qs[i]`
+/// is the objective of `mesh.tets[i]`, on entry and on return. Nodes never
+/// move. Returns the flips made.
+pub(crate) fn raise_worst(mesh: &mut TetMesh, params: &FlipParams, qs: &mut Vec<f64>) -> usize {
+    let (pos, tets) = (&mesh.pos, &mut mesh.tets);
+    sweep(pos, tets, qs, Goal::Worst, TARGET_Q, params.worst_sweeps)
 }
 
 /// One sweep of edge removals and 2-3 flips around every tetrahedron whose
@@ -339,12 +357,13 @@ pub fn raise_worst(pos: &[P3], tets: &mut Vec<[u32; 4]>, qs: &mut Vec<f64>) -> u
 /// one sweep around tetrahedra below 0.7 made 1,737 flips among 117k
 /// tetrahedra, the mean went 0.886 → 0.892, and the next smoothing pass
 /// reached 0.901 where a pass without flips reaches 0.887.
-pub fn raise_mean(pos: &[P3], tets: &mut Vec<[u32; 4]>, mu: f64, below: f64) -> usize {
+pub(crate) fn raise_mean(mesh: &mut TetMesh, mu: f64, below: f64) -> usize {
+    let (pos, tets) = (&mesh.pos, &mut mesh.tets);
     let goal = Goal::Mean {
         mu,
         floor: TARGET_Q,
     };
-    let mut qs: Vec<f64> = tets.iter().map(|t| tet_q(pos, t)).collect();
+    let mut qs: Vec<f64> = tets.iter().map(|t| objective_of(pos, t)).collect();
     sweep(pos, tets, &mut qs, goal, below, 1)
 }
 
@@ -362,7 +381,7 @@ fn sweep(
     if !qs.iter().any(|&q| q < below) {
         return 0;
     }
-    let mut tm = TetMesh::new(pos, std::mem::take(tets), std::mem::take(qs));
+    let mut tm = FlipState::new(pos, std::mem::take(tets), std::mem::take(qs));
     let mut flips = 0;
     for _ in 0..sweeps {
         let mut changed = 0;
@@ -377,7 +396,7 @@ fn sweep(
             let flipped = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
                 .iter()
                 .any(|&(i, j)| tm.try_edge_removal(tt[i], tt[j], goal))
-                || FACE3
+                || TET_FACES
                     .iter()
                     .any(|f| tm.try_2_3([tt[f[0]], tt[f[1]], tt[f[2]]], goal));
             if flipped {
@@ -396,8 +415,8 @@ fn sweep(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volume::tet::polish::tests::{
-        assert_positive, boundary_faces, jittered_lattice, mean_q, volume, worst_objective,
+    use crate::volume::tet::mesh::testing::{
+        assert_positive, boundary_faces, jittered_mesh, mean_q, volume, worst_objective,
     };
 
     /// A mean-raising sweep on a jittered lattice: the mean rises, and the
@@ -407,10 +426,12 @@ mod tests {
     /// and no new tetrahedron below min(old worst, TARGET_Q).
     #[test]
     fn raise_mean_keeps_a_conforming_tetrahedralization() {
-        let (pos, _, tets0) = jittered_lattice(8, 0.45);
-        let mut tets = tets0.clone();
+        let mut mesh = jittered_mesh(8, 0.45);
+        let (pos, tets0) = (mesh.pos.clone(), mesh.tets.clone());
         let m0 = mean_q(&pos, &tets0);
-        let flips = raise_mean(&pos, &mut tets, m0, 1.0);
+        let flips = raise_mean(&mut mesh, m0, 1.0);
+        assert_eq!(mesh.pos, pos, "flips move no node");
+        let tets = mesh.tets;
         assert!(flips > 0);
         let m1 = mean_q(&pos, &tets);
         assert!(m1 > m0 + 0.01, "mean {m0} -> {m1}");
@@ -423,17 +444,20 @@ mod tests {
     /// The sliver goal never lowers the worst tetrahedron.
     #[test]
     fn raise_worst_lifts_the_worst_tetrahedron() {
-        let (pos, _, tets0) = jittered_lattice(8, 0.45);
-        let mut tets = tets0.clone();
+        let mut mesh = jittered_mesh(8, 0.45);
+        let (pos, tets0) = (mesh.pos.clone(), mesh.tets.clone());
         let w0 = worst_objective(&pos, &tets0);
         assert!(w0 < TARGET_Q);
-        let mut qs: Vec<f64> = tets.iter().map(|t| tet_q(&pos, t)).collect();
-        assert!(raise_worst(&pos, &mut tets, &mut qs) > 0);
+        let mut qs = mesh.objectives();
+        assert!(raise_worst(&mut mesh, &FlipParams::default(), &mut qs) > 0);
+        assert_eq!(mesh.pos, pos, "flips move no node");
+        let tets = mesh.tets;
         for (t, q) in tets.iter().zip(&qs) {
-            assert_eq!(*q, tet_q(&pos, t), "the objectives stay current");
+            assert_eq!(*q, objective_of(&pos, t), "the objectives stay current");
         }
         assert!(worst_objective(&pos, &tets) > w0);
         assert_positive(&pos, &tets);
+        assert_eq!(boundary_faces(&tets0), boundary_faces(&tets));
         assert!((volume(&pos, &tets) - volume(&pos, &tets0)).abs() < 1e-9);
     }
 }

@@ -14,27 +14,55 @@
 //! is kept. Weights carry the spacing: a tetrahedron counts with
 //! |T|/d_T³, the node density of its region.
 
+use super::mesh::TetMesh;
 use crate::geom::P3;
+use crate::measure::tet_circumcentre;
 
-use crate::volume::InVolume;
+/// ODT smoothing's tuning.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct OdtParams {
+    /// Iterations (each a Delaunay tetrahedralization of all nodes).
+    pub iterations: usize,
+    /// Largest move of a node per iteration, in units of its spacing.
+    pub max_step: f64,
+}
 
-/// ODT iterations.
-pub const ITERATIONS: usize = 20;
-/// Largest move of a node per iteration, in units of its spacing.
-pub const MAX_STEP: f64 = 0.25;
+impl Default for OdtParams {
+    fn default() -> Self {
+        OdtParams {
+            iterations: 20,
+            max_step: 0.25,
+        }
+    }
+}
 
-/// Smooths the free nodes `pos[n_fixed..]` (spacing `d`), keeping them
-/// inside `carrier`'s volume. Returns the number of iterations done.
-pub fn smooth(
-    pos: &mut [P3],
-    n_fixed: usize,
-    d: &[f64],
-    carrier: &InVolume<'_>,
-    iterations: usize,
-) -> usize {
+/// What [`odt_smooth`] did.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct OdtStats {
+    /// Iterations done (it stops early when no node moves more than
+    /// 0.001·d).
+    pub iterations: usize,
+}
+
+/// Moves the free nodes (`mesh.movable`) towards the spacing-weighted mean
+/// of the circumcentres of their Delaunay tetrahedra, keeping each where
+/// `inside` accepts it. `mesh.tets` is not read (each iteration
+/// tetrahedralizes the nodes afresh) and not changed: the caller connects
+/// the smoothed nodes.
+///
+/// Why `inside` is a closure: the volume's inside test belongs to the
+/// volume, which calls this pass, not the other way round.
+pub(crate) fn odt_smooth(
+    mesh: &mut TetMesh,
+    params: &OdtParams,
+    inside: impl Fn(&P3) -> bool,
+) -> OdtStats {
+    let TetMesh {
+        pos, movable, d, ..
+    } = mesh;
     let n = pos.len();
     let mut done = 0;
-    for _ in 0..iterations {
+    for _ in 0..params.iterations {
         let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
         let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
             break;
@@ -43,39 +71,33 @@ pub fn smooth(
         let mut wsum = vec![0.0f64; n];
         for t in &dt.tets {
             let [a, b, c, e] = t.map(|k| pos[k as usize]);
-            let (u, v, w) = (b - a, c - a, e - a);
-            let vol6 = u.dot(&v.cross(&w));
-            if vol6 == 0.0 {
+            let Some(cc) = tet_circumcentre(&a, &b, &c, &e) else {
                 continue;
-            }
-            // circumcentre relative to a
-            let num = v.cross(&w) * u.norm_squared()
-                + w.cross(&u) * v.norm_squared()
-                + u.cross(&v) * w.norm_squared();
-            let cc = a.coords + num / (2.0 * vol6);
+            };
+            let vol6 = crate::measure::tet_volume6(&a, &b, &c, &e);
             let dt_ = 0.25 * t.iter().map(|&k| d[k as usize]).sum::<f64>();
             let wt = vol6.abs() / (dt_ * dt_ * dt_);
             for &k in t {
                 let k = k as usize;
-                if k >= n_fixed {
-                    acc[k] += cc * wt;
+                if movable[k] {
+                    acc[k] += cc.coords * wt;
                     wsum[k] += wt;
                 }
             }
         }
         let mut moved = 0.0f64;
-        for i in n_fixed..n {
+        for i in (0..n).filter(|&i| movable[i]) {
             if wsum[i] <= 0.0 {
                 continue;
             }
             let target = P3::from(acc[i] / wsum[i]);
             let mut step = target - pos[i];
             let len = step.norm();
-            if len > MAX_STEP * d[i] {
-                step *= MAX_STEP * d[i] / len;
+            if len > params.max_step * d[i] {
+                step *= params.max_step * d[i] / len;
             }
             let cand = pos[i] + step;
-            if carrier.contains_point(&cand) {
+            if inside(&cand) {
                 pos[i] = cand;
                 moved = moved.max(step.norm() / d[i]);
             }
@@ -85,5 +107,36 @@ pub fn smooth(
             break;
         }
     }
-    done
+    OdtStats { iterations: done }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::tet::mesh::testing::{assert_positive, jittered_mesh, mean_q};
+
+    fn delaunay(pos: &[P3]) -> Vec<[u32; 4]> {
+        let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
+        bubblemesh_delaunay::tetrahedralize(&coords).unwrap().tets
+    }
+
+    /// On a jittered lattice, ODT moves only free nodes, keeps them inside,
+    /// and the re-tetrahedralization is all positive with a mean radius
+    /// ratio no lower than before.
+    #[test]
+    fn odt_keeps_tets_positive_and_raises_the_mean() {
+        let mut mesh = jittered_mesh(7, 0.4);
+        let (pos0, m0) = (mesh.pos.clone(), mean_q(&mesh.pos, &mesh.tets));
+        let inside = |p: &P3| (0..3).all(|k| p[k] > 0.0 && p[k] < 6.0);
+        let stats = odt_smooth(&mut mesh, &OdtParams::default(), inside);
+        assert!(stats.iterations > 0);
+        for (i, (p, p0)) in mesh.pos.iter().zip(&pos0).enumerate() {
+            assert!(mesh.movable[i] || p == p0, "fixed node {i} moved");
+            assert!(!mesh.movable[i] || inside(p));
+        }
+        let tets = delaunay(&mesh.pos);
+        assert_positive(&mesh.pos, &tets);
+        let m1 = mean_q(&mesh.pos, &tets);
+        assert!(m1 >= m0, "mean {m0} -> {m1}");
+    }
 }

@@ -1,0 +1,187 @@
+//! Steiner points for slivers whose corners are all fixed: new free nodes
+//! inside the volume that let the next tetrahedralization split them (not
+//! in the thesis).
+
+use super::mesh::TetMesh;
+use crate::geom::{P3, V3};
+
+/// Rounds of [`steiner_points`] and re-connection after the sliver pass.
+pub(crate) const STEINER_ROUNDS: usize = 6;
+/// A tetrahedron with a radius ratio below this is flat: it gets Steiner
+/// points, and the volume is refused rather than meshed with one.
+pub(crate) const FLAT_Q: f64 = 1e-6;
+
+/// New free points for `slivers` (the caller passes those whose corners are
+/// all fixed: flat in the raw tetrahedralization, or still below
+/// [`TARGET_Q`](super::star::TARGET_Q) after the sliver pass): for each, the two points 0.29·d off its
+/// centroid along the normal of its mean plane (d: the mean spacing of its
+/// corners), those that `inside` accepts, skipping one within a quarter
+/// spacing of a point already chosen.
+///
+/// Why: a sliver whose four corners are all boundary nodes cannot be
+/// smoothed away. It happens in a wall about one spacing thick, where no
+/// free bubble fits and the two sides' surface meshes face each other;
+/// where their lattices are translates of each other (two planar faces
+/// meshed alike), the nodes form triangular prisms across the wall whose
+/// side rectangles are cocircular and, to rounding, coplanar. Delaunay
+/// then splits each rectangle by whichever diagonal the rounding favours;
+/// a prism whose three diagonals turn cyclically is Schönhardt's
+/// polyhedron, which has no tetrahedralization, and a tetrahedron of volume
+/// ~1e-17·L³ on a rectangle glues the two sides together (seen on
+/// fixtures/step/b3d_bottle.step at size 1: 77 of them, no flip removes
+/// them). A point inside the prism on either side of the rectangle (its
+/// centre is a/(2√3) ≈ 0.29·a off a side of length a) lets the prism be
+/// split; the caller re-connects ([`with_points`]) and runs the sliver pass again, which can move
+/// the new points.
+pub(crate) fn steiner_points(
+    pos: &[P3],
+    slivers: &[[u32; 4]],
+    d: &[f64],
+    inside: impl Fn(&P3) -> bool,
+) -> Vec<(P3, f64)> {
+    let mut cand: Vec<(P3, f64)> = Vec::new();
+    for t in slivers {
+        let p = t.map(|k| pos[k as usize]);
+        let c = P3::from((p[0].coords + p[1].coords + p[2].coords + p[3].coords) / 4.0);
+        let dc = t.iter().map(|&k| d[k as usize]).sum::<f64>() / 4.0;
+        // the normal of the mean plane: the largest cross product of two
+        // opposite edges (for a flat quadrilateral, its diagonals')
+        let n = [(0, 1, 2, 3), (0, 2, 1, 3), (0, 3, 1, 2)]
+            .iter()
+            .map(|&(a, b, e, f)| (p[b] - p[a]).cross(&(p[f] - p[e])))
+            .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))
+            .unwrap_or_else(V3::zeros);
+        let nn = n.norm();
+        if nn.is_nan() || nn <= 0.0 {
+            continue;
+        }
+        for s in [1.0, -1.0] {
+            let q = c + n * (s * 0.29 * dc / nn);
+            if inside(&q) {
+                cand.push((q, dc));
+            }
+        }
+    }
+    let Some(h) = cand.iter().map(|c| 0.25 * c.1).min_by(f64::total_cmp) else {
+        return Vec::new();
+    };
+    // a hash grid of cell h (the smallest exclusion radius): a point is
+    // dropped when a chosen one lies within a quarter of its own spacing
+    let key = |p: &P3| [0, 1, 2].map(|i| (p[i] / h).floor() as i64);
+    let mut cells: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
+    let mut out: Vec<(P3, f64)> = Vec::new();
+    for (c, dc) in cand {
+        let r = 0.25 * dc;
+        let reach = (r / h).ceil() as i64;
+        let k = key(&c);
+        let mut near = false;
+        'search: for dx in -reach..=reach {
+            for dy in -reach..=reach {
+                for dz in -reach..=reach {
+                    if let Some(v) = cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
+                        if v.iter().any(|&j| (out[j].0 - c).norm() < r) {
+                            near = true;
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        if !near {
+            cells.entry(k).or_default().push(out.len());
+            out.push((c, dc));
+        }
+    }
+    out
+}
+
+/// The nodes of `mesh` to re-connect after Steiner points: the first
+/// `n_fixed` (the boundary's, which keep their indices: the boundary
+/// triangles refer to them), the movable ones, then `extra` (position and
+/// spacing). The free nodes the boundary recovery removed are dropped.
+/// Returns positions and spacings.
+pub(crate) fn with_points(
+    mesh: &TetMesh,
+    n_fixed: usize,
+    extra: Vec<(P3, f64)>,
+) -> (Vec<P3>, Vec<f64>) {
+    let (pos, d) = (&mesh.pos, &mesh.d);
+    let mut pos2: Vec<P3> = Vec::with_capacity(pos.len() + extra.len());
+    let mut d2: Vec<f64> = Vec::with_capacity(pos.len() + extra.len());
+    for i in 0..pos.len() {
+        if i < n_fixed || mesh.movable[i] {
+            pos2.push(pos[i]);
+            d2.push(d[i]);
+        }
+    }
+    for (p, dp) in extra {
+        pos2.push(p);
+        d2.push(dp);
+    }
+    (pos2, d2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measure::tet_radius_ratio_of;
+    use crate::volume::tet::mesh::testing::assert_positive;
+
+    /// A rectangle across a wall, coplanar to rounding (the b3d_bottle
+    /// case): one Steiner point on each side of it, 0.29·d off its centre,
+    /// both dropped where `inside` refuses them, and a second sliver at the
+    /// same place adds nothing.
+    #[test]
+    fn steiner_points_straddle_a_flat_rectangle() {
+        let pos = vec![
+            P3::new(0.0, 0.0, 0.0),
+            P3::new(1.0, 1e-17, 0.0),
+            P3::new(1.0, 0.0, 1.0),
+            P3::new(0.0, 1e-17, 1.0),
+        ];
+        let d = vec![1.0; 4];
+        let t = [0, 1, 2, 3];
+        assert!(tet_radius_ratio_of(&pos, &t).abs() < FLAT_Q);
+        let pts = steiner_points(&pos, &[t, [1, 2, 3, 0]], &d, |_| true);
+        assert_eq!(pts.len(), 2, "{pts:?}");
+        for (p, dp) in &pts {
+            assert_eq!(*dp, 1.0);
+            assert!((p.x - 0.5).abs() < 1e-12 && (p.z - 0.5).abs() < 1e-12);
+            assert!((p.y.abs() - 0.29).abs() < 1e-12, "{p:?}");
+        }
+        assert!(pts[0].0.y * pts[1].0.y < 0.0);
+        let one_side = steiner_points(&pos, &[t], &d, |p| p.y > 0.0);
+        assert_eq!(one_side.len(), 1);
+        assert!(one_side[0].0.y > 0.0);
+    }
+
+    /// Insertion keeps the mesh valid: a flat rectangle between two
+    /// tetrahedra, its Steiner points added and everything re-tetrahedralized,
+    /// leaves every tetrahedron positive and none flat.
+    #[test]
+    fn inserted_points_give_positive_tetrahedra() {
+        let mesh = TetMesh {
+            pos: vec![
+                P3::new(0.0, 0.0, 0.0),
+                P3::new(1.0, 1e-17, 0.0),
+                P3::new(1.0, 0.0, 1.0),
+                P3::new(0.0, 1e-17, 1.0),
+                P3::new(0.5, 0.8, 0.5),
+                P3::new(0.5, -0.8, 0.5),
+            ],
+            movable: vec![false; 6],
+            d: vec![1.0; 6],
+            tets: vec![[0, 1, 2, 3]],
+        };
+        let extra = steiner_points(&mesh.pos, &mesh.tets, &mesh.d, |_| true);
+        assert_eq!(extra.len(), 2);
+        let (pos, d) = with_points(&mesh, 6, extra);
+        assert_eq!((pos.len(), d.len()), (8, 8));
+        assert_eq!(&pos[..6], &mesh.pos[..]);
+        let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let tets = bubblemesh_delaunay::tetrahedralize(&coords).unwrap().tets;
+        assert!(!tets.is_empty());
+        assert_positive(&pos, &tets);
+        assert!(tets.iter().all(|t| tet_radius_ratio_of(&pos, t) > FLAT_Q));
+    }
+}
