@@ -5,10 +5,11 @@ mod common;
 
 use std::collections::{HashMap, HashSet};
 
-use bubblemesh_core::bubbles::constraint::{Carrier, OnFace};
+use bubblemesh_core::bubbles::constraint::Carrier;
 use bubblemesh_core::bubbles::population;
 use bubblemesh_core::bubbles::system::{RelaxSettings, System};
 use bubblemesh_core::engine::Options;
+use bubblemesh_core::face::carrier::OnFace;
 use bubblemesh_core::face::region::Region;
 use bubblemesh_core::geom::{Plane, P3, V3};
 use bubblemesh_core::spacing::{Constant, Expr};

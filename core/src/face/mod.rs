@@ -3,6 +3,7 @@
 //! held on the face through their (u,v) (§4.5); then constrained Delaunay
 //! connection in (u,v) and the 2D improvement.
 
+pub mod carrier;
 pub mod conformal;
 pub mod connect;
 pub mod growth;
@@ -13,7 +14,7 @@ pub mod region;
 
 use std::time::Instant;
 
-use crate::bubbles::constraint::{self, Carrier, OnFace};
+use crate::bubbles::constraint::{self, Carrier};
 use crate::bubbles::grid;
 use crate::bubbles::system::{self, RelaxStats, System};
 use crate::error::{check_spacing, MeshError};
@@ -23,6 +24,7 @@ use crate::model::{EntityRef, Model};
 use crate::options::{relax_progress, Options, Timings};
 use crate::spacing::{Spacing, SpacingQuery};
 
+use carrier::OnFace;
 use region::Region;
 
 /// Seed a boundary layer before the quadtree lattice (measured: no gain on
