@@ -10,3 +10,5 @@ pub mod grid;
 pub mod population;
 pub mod relax;
 pub mod system;
+#[cfg(test)]
+pub(crate) mod testing;

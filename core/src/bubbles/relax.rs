@@ -481,3 +481,87 @@ impl<'a, C: Carrier> System<'a, C> {
         Ok(max_move)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::testing::{self, Line};
+    use crate::spacing::Constant;
+
+    /// Positions of all bubbles along the line, sorted.
+    fn sorted_x(sys: &System<'_, Line>) -> Vec<f64> {
+        let mut x: Vec<f64> = sys.pos.iter().map(|p| p.x).collect();
+        x.sort_by(|a, b| a.total_cmp(b));
+        x
+    }
+
+    /// Free bubbles between two fixed ones on a line reach the force
+    /// balance (§4.3): every neighbour at the stable distance r0 = d, so
+    /// the chain ends equally spaced; and the damped dynamics lose energy
+    /// on the way (the potential ends at its minimum, every gap at r0). A
+    /// bubble sleeps once its net force is below SLEEP_FORCE·k0·d, so each
+    /// gap is r0 to a few times that fraction.
+    #[test]
+    fn a_chain_between_two_fixed_bubbles_ends_equally_spaced() {
+        let d = 0.2;
+        let s = Constant(d);
+        let mut sys = testing::system(Line, &s, vec![[0.0, 0.0], [1.0, 0.0]], 1);
+        for x in [0.15, 0.35, 0.6, 0.85] {
+            sys.push_free(P3::new(x, 0.0, 0.0), [x, 0.0], d);
+        }
+        let settings = RelaxSettings {
+            max_steps: 3000,
+            tol: 1e-7,
+            // no population control and no plateau stop: relaxation alone
+            population_until: 0.0,
+            plateau: f64::NEG_INFINITY,
+            ..Default::default()
+        };
+        let u0 = sys.potential(&sys.neighbours());
+        let stats = sys.relax(&settings, |_| {}).unwrap();
+        assert!(stats.converged, "not converged in {} steps", stats.steps);
+        assert_eq!(sys.n(), 6);
+        let x = sorted_x(&sys);
+        for w in x.windows(2) {
+            assert!(
+                (w[1] - w[0] - d).abs() < 4.0 * SLEEP_FORCE * d,
+                "gaps {:?}",
+                x.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()
+            );
+        }
+        let u1 = sys.potential(&sys.neighbours());
+        let minimum = 5.0 * force::potential(d, d, K0);
+        assert!(u1 < u0, "energy {u0} -> {u1}");
+        assert!(
+            (u1 - minimum).abs() < 1e-4 * K0 * d * d,
+            "{u1} vs {minimum}"
+        );
+        // the recorded history falls from its first sample to its last
+        let (first, last) = (stats.energy[0], *stats.energy.last().unwrap());
+        assert!(last.total < first.total, "{first:?} -> {last:?}");
+    }
+
+    /// A bubble started between two fixed bubbles off the middle comes to
+    /// rest in the middle, whatever side it starts on.
+    #[test]
+    fn one_bubble_between_two_fixed_ones_stops_in_the_middle() {
+        for x0 in [0.3, 0.7] {
+            let s = Constant(0.5);
+            let mut sys = testing::system(Line, &s, vec![[0.0, 0.0], [1.0, 0.0]], 1);
+            sys.push_free(P3::new(x0, 0.0, 0.0), [x0, 0.0], 0.5);
+            let settings = RelaxSettings {
+                max_steps: 3000,
+                tol: 1e-7,
+                population_until: 0.0,
+                plateau: f64::NEG_INFINITY,
+                ..Default::default()
+            };
+            sys.relax(&settings, |_| {}).unwrap();
+            assert!(
+                (sys.pos[2].x - 0.5).abs() < 1e-3,
+                "from {x0}: {}",
+                sys.pos[2].x
+            );
+        }
+    }
+}

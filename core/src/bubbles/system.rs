@@ -251,7 +251,7 @@ pub const PLATEAU: f64 = 1e-5;
 /// 100–450 of each relaxation (1.2 s of 2.5 s), and the tetrahedra came
 /// out the same (q 0.550 / 0.9404, dihedral angles 26.8°–135.3° against
 /// 136.2°; the boundary triangles' min 0.800 against 0.805, mean 0.997;
-/// H and J the same; session 9, after the sliver pass began to flip
+/// H and J the same; measured after the sliver pass began to flip
 /// first: before that K's worst angle fell to 25.4° with it). Not for
 /// surface meshes (`--dim 2`), where the triangles are the product: there
 /// it cost case F (sphere) its min, 0.900 → 0.873, and case E 0.00003 of

@@ -146,3 +146,36 @@ impl Carrier for OnFace<'_> {
         self.surface.is_planar()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::system::RelaxSettings;
+    use crate::bubbles::testing::{self, hex_fill, square_system};
+    use crate::geom::Plane;
+    use crate::spacing::Constant;
+
+    /// Bubbles moved by the first fundamental form stay on the face and
+    /// inside its region, even when every one is kicked toward the outside.
+    #[test]
+    fn face_bubbles_stay_inside_the_region() {
+        let s = Constant(0.05);
+        let boundary = square_system(&s).params;
+        let plane = Plane::xy();
+        let carrier = OnFace::new(
+            &plane,
+            Region::new(&[boundary.clone()]),
+            EntityRef::new(2, 0),
+        );
+        let mut sys = testing::system(carrier, &s, boundary, 2);
+        hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
+        for i in sys.n_fixed..sys.n() {
+            sys.vel[i] = V3::new(sys.pos[i].x - 0.5, sys.pos[i].y - 0.5, 0.0) * 2.0;
+        }
+        sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+        for i in sys.n_fixed..sys.n() {
+            assert!(sys.carrier.contains(sys.params[i]));
+            assert_eq!(sys.pos[i].z, 0.0);
+        }
+    }
+}

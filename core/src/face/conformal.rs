@@ -1,5 +1,5 @@
 //! Seeds from a hexagonal lattice conformal to the spacing, for graded planar
-//! faces (a second start for stage 2's connection; issue 2).
+//! faces (a second start for stage 2 and the connection).
 //!
 //! **Why.** A spacing d(x) is the metric |dx|²/d², whose Gaussian curvature
 //! is d²·Δ log d. A triangular lattice drawn in that metric needs five- and
@@ -41,7 +41,7 @@
 //!    geodesics ([`HOLE_TOL`]); a hole in a nearly uniform spacing is
 //!    Dirichlet like the outer loop.
 //!
-//! The caller (`engine::conformal_restart`) takes the seeds as a new stage 1:
+//! The caller (`face::conformal_restart`) takes the seeds as a new stage 1:
 //! stage 2, connection, improvement and more rounds of the mean lift, and
 //! keeps the result only if its mean radius ratio is higher and its spacing
 //! no worse than the packed mesh's. Measured with `bench/run_2d.py`: case B
@@ -140,6 +140,46 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
     let u: Vec<f64> = dn.iter().map(|&x| -x.ln()).collect();
 
     let euclid = Metric::new(&mesh, &vec![0.0; n]);
+    let mut first = first_order(&mut mesh, &euclid, &u, bg.holes.len())?;
+    let (kappa, cones) = place_cones(&mesh, &mut first, &dn)?;
+    let mut phi = u.clone();
+    for (m, &i) in first.unk_nodes.iter().enumerate() {
+        phi[i] += first.h[m];
+    }
+    // the cones found to first order, the metric is made flat exactly
+    if !newton(&mesh, &first.unk, &first.unk_nodes, &kappa, &mut phi) {
+        return None;
+    }
+    let f = lay_out(&mesh, bg, &u, &phi)?;
+    let raw = lattice_points(&mesh, &f);
+    let seeds = clear_seeds(bg, d, &dn, raw);
+    Some(Lattice { seeds, cones })
+}
+
+/// The first-order solution before any cone: the unknowns (interior nodes
+/// and Neumann hole nodes), L restricted to them, the right-hand side and h.
+struct FirstOrder {
+    /// Index of each background node among the unknowns (`usize::MAX`:
+    /// Dirichlet).
+    unk: Vec<usize>,
+    unk_nodes: Vec<usize>,
+    rows: Vec<Vec<(usize, f64)>>,
+    diag: Vec<f64>,
+    /// −(L u)_U − K_E.
+    rhs0: Vec<f64>,
+    /// h at the unknowns; after [`place_cones`], with the cones.
+    h: Vec<f64>,
+}
+
+/// Step 2 and 7 of the module docs: h with no cone, a hole made Dirichlet
+/// (in `mesh.hole_of`) when it is not nearly a closed geodesic.
+fn first_order(
+    mesh: &mut Refined,
+    euclid: &Metric,
+    u: &[f64],
+    nholes: usize,
+) -> Option<FirstOrder> {
+    let n = mesh.uv.len();
     // A hole is Neumann (straight in the layout, lattice rows along it) when
     // the metric makes it close to a closed geodesic: the spacing growing
     // like the distance from the hole's centre (case C), where the first-
@@ -147,8 +187,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
     // (a hole in a nearly uniform spacing) straightening it would distort
     // the scale by e^|h|, far out of band, so it is Dirichlet like the
     // outer loop.
-    let nholes = bg.holes.len();
-    let (unk, unk_nodes, rows, diag, rhs0, mut h) = loop {
+    loop {
         // unknowns: interior nodes and Neumann hole nodes; the rest is Dirichlet
         let mut unk = vec![usize::MAX; n];
         let mut unk_nodes = Vec::new();
@@ -188,21 +227,41 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         }
         let dirichlet: Vec<usize> = (0..nholes).filter(|&k| worst[k] > HOLE_TOL).collect();
         if dirichlet.is_empty() {
-            break (unk, unk_nodes, rows, diag, rhs0, h);
+            return Some(FirstOrder {
+                unk,
+                unk_nodes,
+                rows,
+                diag,
+                rhs0,
+                h,
+            });
         }
         for x in mesh.hole_of.iter_mut() {
             if *x != usize::MAX && dirichlet.contains(x) {
                 *x = usize::MAX;
             }
         }
-    };
-    let nu = unk_nodes.len();
-    let sys = Spd {
-        rows: &rows,
-        diag: &diag,
-    };
+    }
+}
 
-    // cones, greedily
+/// Step 3 of the module docs: cones placed greedily at the largest |h|,
+/// re-solving for h (in `first.h`) after each. Returns κ at the unknowns
+/// and the cones placed (positive, negative).
+fn place_cones(
+    mesh: &Refined,
+    first: &mut FirstOrder,
+    dn: &[f64],
+) -> Option<(Vec<f64>, (usize, usize))> {
+    let FirstOrder {
+        unk_nodes,
+        rows,
+        diag,
+        rhs0,
+        h,
+        ..
+    } = first;
+    let nu = unk_nodes.len();
+    let sys = Spd { rows, diag };
     let mut kappa = vec![0.0; nu];
     let mut b = rhs0.clone();
     // cones go more than CONE_EXCLUSION spacings from every cone (a cone's
@@ -278,19 +337,19 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         for m in 0..nu {
             b[m] = rhs0[m] + kappa[m];
         }
-        if !sys.solve(&b, &mut h, GREEDY_TOL) {
+        if !sys.solve(&b, h, GREEDY_TOL) {
             return None;
         }
     }
-    let mut phi = u.clone();
-    for (m, &i) in unk_nodes.iter().enumerate() {
-        phi[i] += h[m];
-    }
-    // the cones found to first order, the metric is made flat exactly
-    if !newton(&mesh, &unk, &unk_nodes, &kappa, &mut phi) {
-        return None;
-    }
+    Some((kappa, cones))
+}
 
+/// Steps 4 and 5 of the module docs: each triangle laid out in the plane
+/// with the metric e^{2φ}|dx|², one layout per region (the Neumann hole
+/// nearest in triangle hops, or one region when there is none), each
+/// aligned to its hole. `None` when a Neumann hole has no region.
+fn lay_out(mesh: &Refined, bg: &Background<'_>, u: &[f64], phi: &[f64]) -> Option<Vec<[C64; 3]>> {
+    let nholes = bg.holes.len();
     // regions: each triangle belongs to the Neumann hole nearest in
     // triangle hops (one region when there is none)
     let ntri = mesh.tris.len();
@@ -353,13 +412,18 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         if root == usize::MAX {
             continue; // a Dirichlet hole: no region of its own
         }
-        layout(&mesh, root, |t| region[t] == r, &len, &mut f);
+        layout(mesh, root, |t| region[t] == r, &len, &mut f);
         if neumann.get(r) == Some(&true) {
-            align_to_hole(&mesh, r, bg.holes[r].len(), &region, &mut f);
+            align_to_hole(mesh, r, bg.holes[r].len(), &region, &mut f);
         }
     }
+    Some(f)
+}
 
-    // lattice points of every laid-out triangle, mapped back
+/// Step 6 of the module docs: the points of the unit hexagonal lattice in
+/// every laid-out triangle `f[t]`, mapped back to (u,v) by barycentric
+/// coordinates.
+fn lattice_points(mesh: &Refined, f: &[[C64; 3]]) -> Vec<[f64; 2]> {
     let sin60 = 3f64.sqrt() / 2.0;
     let w = C64::new(0.5, sin60);
     let mut raw: Vec<[f64; 2]> = Vec::new();
@@ -400,8 +464,18 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
             }
         }
     }
+    raw
+}
 
-    // keep seeds clear of the segments, the fixed nodes and each other
+/// The lattice points, in order, that keep clear of the segments
+/// ([`BOUNDARY_GAP`]), the fixed nodes and each other ([`SEED_GAP`]), with
+/// their spacing.
+fn clear_seeds(
+    bg: &Background<'_>,
+    d: &mut dyn FnMut([f64; 2]) -> f64,
+    dn: &[f64],
+    raw: Vec<[f64; 2]>,
+) -> Vec<([f64; 2], f64)> {
     let dmin = dn.iter().cloned().fold(f64::INFINITY, f64::min);
     let seg_grid = SegmentGrid::new(bg.uv, bg.segments);
     let mut pts = PointGrid::new(SEED_GAP * dmin);
@@ -436,7 +510,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
             seeds.push((p, dp));
         }
     }
-    Some(Lattice { seeds, cones })
+    seeds
 }
 
 /// The background: the bubble mesh refined 1-to-4, with triangle adjacency,

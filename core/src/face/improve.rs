@@ -192,7 +192,9 @@ fn delaunay_flips<C: Carrier>(
             if fixed.contains(&(a.min(b), a.max(b))) {
                 continue;
             }
-            if not_delaunay(sys, a, b, c, d) && try_flip(sys, tris, &mut inc, ti, tj, a, b, c, d) {
+            if not_delaunay(sys, a, b, c, d)
+                && try_flip(sys, tris, &mut inc, (ti, tj), [a, b, c, d])
+            {
                 flips += 1;
                 stack.push(ti);
                 stack.push(tj);
@@ -269,18 +271,14 @@ fn pair(
 }
 
 /// Replaces (a,b,c),(b,a,d) by (c,a,d),(d,b,c) if the quadrilateral
-/// c,a,d,b is strictly convex in (u,v). Returns whether it flipped.
-#[allow(clippy::too_many_arguments)]
+/// c,a,d,b is strictly convex in (u,v) (triangles `ti`, `tj`). Returns
+/// whether it flipped.
 fn try_flip<C: Carrier>(
     sys: &System<'_, C>,
     tris: &mut [[usize; 3]],
     inc: &mut Incidence,
-    ti: usize,
-    tj: usize,
-    a: usize,
-    b: usize,
-    c: usize,
-    d: usize,
+    (ti, tj): (usize, usize),
+    [a, b, c, d]: [usize; 4],
 ) -> bool {
     let p = &sys.params;
     let ok = if sys.carrier.planar() {

@@ -339,3 +339,122 @@ pub fn apex_seeds<C: Carrier>(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::testing::Square;
+    use crate::geom::V3;
+
+    /// The segment [0,1] of the x axis, C(t) = (t, 0, 0).
+    #[derive(Debug)]
+    struct Segment;
+
+    impl Curve for Segment {
+        fn interval(&self) -> (f64, f64) {
+            (0.0, 1.0)
+        }
+        fn point(&self, t: f64) -> P3 {
+            P3::new(t, 0.0, 0.0)
+        }
+        fn d1(&self, _t: f64) -> V3 {
+            V3::x()
+        }
+        fn d2(&self, _t: f64) -> V3 {
+            V3::zeros()
+        }
+    }
+
+    fn graded(x: f64) -> f64 {
+        0.05 + 0.1 * x
+    }
+
+    /// Bisection (§4.1.1) stops splitting when the chord is at most the sum
+    /// of the end radii, and splits while it is longer: every segment is at
+    /// most (d_a + d_b)/2 long and more than half that (its parent was
+    /// split).
+    #[test]
+    fn bisection_gives_segments_near_the_spacing() {
+        let mut d_at = |t: f64, _: &P3| Ok(graded(t));
+        let ts = bisect_edge(&Segment, 0.0, 1.0, &mut d_at, false).unwrap();
+        let all: Vec<f64> = std::iter::once(0.0)
+            .chain(ts.iter().cloned())
+            .chain(std::iter::once(1.0))
+            .collect();
+        for w in all.windows(2) {
+            let (len, r0) = (w[1] - w[0], 0.5 * (graded(w[0]) + graded(w[1])));
+            assert!(len <= r0 * (1.0 + 1e-12), "segment {w:?}: {len} > {r0}");
+            assert!(len > 0.5 * r0 * 0.99, "segment {w:?}: {len} against {r0}");
+        }
+    }
+
+    /// Equidistribution gives eq. 4.7.1's count: ∫ ds/d less the two end
+    /// bubbles' halves; for d = 0.05 + 0.1 x on [0,1], ∫ ds/d = 10 ln 3 =
+    /// 10.99, so 11 pieces and 10 interior bubbles, each piece holding the
+    /// same weighted length.
+    #[test]
+    fn equidistribution_follows_the_population_estimate() {
+        let mut d_at = |t: f64, _: &P3| Ok(graded(t));
+        let ts = equidistribute_edge(&Segment, 0.0, 1.0, &mut d_at, false).unwrap();
+        let total = 10.0 * 3f64.ln();
+        assert_eq!(ts.len(), total.round() as usize - 1);
+        let weighted = |a: f64, b: f64| 10.0 * (graded(b) / graded(a)).ln();
+        let all: Vec<f64> = std::iter::once(0.0)
+            .chain(ts.iter().cloned())
+            .chain(std::iter::once(1.0))
+            .collect();
+        for w in all.windows(2) {
+            let share = weighted(w[0], w[1]);
+            assert!(
+                (share - total / 11.0).abs() < 1e-3,
+                "piece {w:?} holds {share}"
+            );
+        }
+    }
+
+    /// Seeds of the oblique quadtree (§4.1.2) on the unit square, counted
+    /// against the hexagonal lattice's density 2/(√3 d²): exact leaves for a
+    /// uniform spacing give the lattice itself; for a graded one the
+    /// leaves' sides lie in (d/√2, √2 d], and the count in the middle of
+    /// the square (away from the cells that straddle its boundary, where
+    /// the corners outside take `d_outside`) is right on average.
+    #[test]
+    fn quadtree_seed_density_matches_the_spacing() {
+        // the lattice's bubbles over [a, b]² for a spacing varying with x
+        let expected = |d: &dyn Fn(f64) -> f64, a: f64, b: f64| -> f64 {
+            let m = 1000;
+            let w = (b - a) / m as f64;
+            (0..m)
+                .map(|k| {
+                    let x = a + (k as f64 + 0.5) * w;
+                    2.0 / (3f64.sqrt() * d(x) * d(x)) * w * (b - a)
+                })
+                .sum()
+        };
+        let inside =
+            |s: &Seed, a: f64, b: f64| (a..b).contains(&s.pos.x) && (a..b).contains(&s.pos.y);
+        // uniform: the lattice
+        let d = 0.05;
+        let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
+        let seeds =
+            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], Some(d), d, &mut d_at).unwrap();
+        let e = expected(&|_| d, 0.0, 1.0);
+        let n = seeds.len() as f64;
+        assert!((n - e).abs() < 0.05 * e, "{n} seeds, {e:.0} expected");
+        for s in &seeds {
+            let nearest = seeds
+                .iter()
+                .filter(|t| !std::ptr::eq(*t, s))
+                .map(|t| (t.pos - s.pos).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!((nearest - d).abs() < 1e-9, "nearest {nearest}");
+        }
+        // graded
+        let mut d_at = |p: &P3, _: [f64; 2]| Ok(graded(p.x));
+        let seeds =
+            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], None, 0.05, &mut d_at).unwrap();
+        let e = expected(&graded, 0.2, 0.8);
+        let n = seeds.iter().filter(|s| inside(s, 0.2, 0.8)).count() as f64;
+        assert!((n - e).abs() < 0.25 * e, "{n} seeds, {e:.0} expected");
+    }
+}
