@@ -3,12 +3,17 @@
 //! system and its relaxation (stage 2), population control (§4.7), the neighbour grid,
 //! and the constraints that hold bubbles on their entities (§4.5).
 
-pub mod constraint;
-pub mod dynamics;
-pub mod force;
-pub mod grid;
-pub mod population;
-pub mod relax;
-pub mod system;
+/// Upper bound on bubbles one entity may receive; a spacing that asks for
+/// more is almost certainly a unit mistake and is reported instead of
+/// exhausting memory.
+pub const MAX_BUBBLES_PER_ENTITY: usize = 10_000_000;
+
+pub(crate) mod constraint;
+pub(crate) mod dynamics;
+pub(crate) mod force;
+pub(crate) mod grid;
+pub(crate) mod population;
+pub(crate) mod relax;
+pub(crate) mod system;
 #[cfg(test)]
 pub(crate) mod testing;

@@ -19,15 +19,15 @@
 //!   in a tangent hexagonal packing, 5 at a five-valent node, and
 //!   6(3 − 2w) for a hexagonal patch uniformly stretched to w.
 //!
-//! Thresholds ([`EXCESS`], [`OPEN`]) were set so that the stable band of a
+//! Thresholds ([`PopulationParams`]: `excess`, `open`) were set so that the stable band of a
 //! uniformly strained hexagonal patch is w ∈ [0.88, 1.17] — inside the
 //! mesh's target band L/d ∈ [1/√2, √2] with margin — and then checked on the
-//! benchmark cases A–C (`bench/run_2d.py`): lowering EXCESS below 0.6 made
+//! benchmark cases A–C (`bench/run_2d.py`): lowering `excess` below 0.6 made
 //! deletion and insertion chase each other near graded boundaries; raising
-//! OPEN above 4.5 split bubbles at ordinary five-valent nodes.
+//! `open` above 4.5 split bubbles at ordinary five-valent nodes.
 //! A third rule fills holes: an angular gap between consecutive neighbours
-//! wider than [`GAP_ANGLE`] gets a bubble at distance d_i on its bisector if
-//! that spot is free (no bubble closer than [`FIT`]·r0).
+//! wider than `gap_angle` gets a bubble at distance d_i on its bisector if
+//! that spot is free (no bubble closer than `fit`·r0).
 
 use std::collections::HashMap;
 
@@ -38,17 +38,57 @@ use crate::bubbles::grid::Grid;
 use crate::bubbles::system::{Pair, System};
 use crate::error::MeshError;
 
-/// Delete a free bubble whose excess ratio exceeds this.
-pub const EXCESS: f64 = 0.7;
-/// A bubble whose open ratio is below this is open (lacks neighbours).
-pub const OPEN: f64 = 4.0;
-/// Angular gap (radians) between neighbours that is a hole (hexagonal: 60°).
-pub const GAP_ANGLE: f64 = 100.0 * std::f64::consts::PI / 180.0;
-/// A new bubble must be at least FIT·r0 from every bubble (hole rule).
-pub const FIT: f64 = 0.85;
-/// The same for the open rule, which inserts into stretched regions where
-/// the dynamics will make room.
-pub const FIT_OPEN: f64 = 0.6;
+/// The thresholds of population control for one meshing dimension (see
+/// the module docs for how the surface values were calibrated, and
+/// [`PopulationParams::VOLUME`] for the volume's).
+#[derive(Clone, Copy, Debug)]
+pub struct PopulationParams {
+    /// Delete a free bubble whose excess ratio exceeds this.
+    pub excess: f64,
+    /// A bubble whose open ratio is below this is open (lacks neighbours).
+    pub open: f64,
+    /// A hole: on a surface, an angular gap (radians) between consecutive
+    /// neighbours wider than this (hexagonal: 60°); in a volume, a
+    /// direction whose nearest neighbour direction is farther than this.
+    pub gap_angle: f64,
+    /// A new bubble must be at least fit·r0 from every bubble (hole rule).
+    pub fit: f64,
+    /// The same for the open rule, which inserts into stretched regions
+    /// where the dynamics will make room.
+    pub fit_open: f64,
+}
+
+impl PopulationParams {
+    /// On a surface (six neighbours).
+    pub const SURFACE: PopulationParams = PopulationParams {
+        excess: 0.7,
+        open: 4.0,
+        gap_angle: 100.0 * std::f64::consts::PI / 180.0,
+        fit: 0.85,
+        fit_open: 0.6,
+    };
+    /// In a volume (§4.7 for twelve neighbours). A face-centred cubic
+    /// packing has 12 tangent neighbours, so both ratios scale by 12/6 from
+    /// the surface values: a uniformly compressed FCC patch has
+    /// E = 12(1 − w), so `excess` deletes below w ≈ 0.88, and a bubble in
+    /// an octahedral (tetrahedral) hole has E = 1.76 (1.55); a uniformly
+    /// stretched patch has O = 12(3 − 2w), so `open` splits above
+    /// w ≈ 1.17 — the same stable band as on surfaces. The gap angle: FCC
+    /// leaves a 60° cone where a neighbour is missing; the widest empty cone
+    /// of a full FCC shell is 45°, towards an octahedral hole.
+    pub const VOLUME: PopulationParams = PopulationParams {
+        excess: 1.4,
+        open: 8.0,
+        gap_angle: 54.0 * std::f64::consts::PI / 180.0,
+        ..PopulationParams::SURFACE
+    };
+}
+
+impl Default for PopulationParams {
+    fn default() -> Self {
+        PopulationParams::SURFACE
+    }
+}
 
 /// One round of population control on `sys`, given its current pairs and
 /// grid. With `focus`, only the focused bubbles are deleted or seed new
@@ -60,6 +100,7 @@ pub fn control<C: Carrier>(
     grid: &Grid,
     focus: Option<&[bool]>,
 ) -> Result<(usize, usize), MeshError> {
+    let prm = PopulationParams::SURFACE;
     let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
@@ -68,7 +109,7 @@ pub fn control<C: Carrier>(
         adj,
         deleted,
         to_delete,
-    } = crowding(n, nf, pairs, &focused, EXCESS);
+    } = crowding(n, nf, pairs, &focused, prm.excess);
 
     // --- insertion
     let mut new = NewBubbles::new(sys);
@@ -111,12 +152,12 @@ pub fn control<C: Carrier>(
             }
             gaps.sort_by(|a, b| b.0.total_cmp(&a.0));
         }
-        let is_open = i >= nf && open_ratio < OPEN;
+        let is_open = i >= nf && open_ratio < prm.open;
         for &(width, bis) in gaps.iter().take(3) {
-            let fit = if width > GAP_ANGLE {
-                FIT
+            let fit = if width > prm.gap_angle {
+                prm.fit
             } else if is_open {
-                FIT_OPEN
+                prm.fit_open
             } else {
                 break;
             };
@@ -292,20 +333,6 @@ impl NewBubbles {
     }
 }
 
-/// Volume thresholds (§4.7 for twelve neighbours). A face-centred cubic
-/// packing has 12 tangent neighbours, so both ratios scale by 12/6 from the
-/// surface values: a uniformly compressed FCC patch has E = 12(1 − w), so
-/// [`EXCESS_3D`] deletes below w ≈ 0.88, and a bubble in an octahedral
-/// (tetrahedral) hole has E = 1.76 (1.55); a uniformly stretched patch has
-/// O = 12(3 − 2w), so [`OPEN_3D`] splits above w ≈ 1.17 — the same stable
-/// band as on surfaces.
-pub const EXCESS_3D: f64 = 1.4;
-/// See [`EXCESS_3D`].
-pub const OPEN_3D: f64 = 8.0;
-/// A direction whose nearest neighbour direction is farther than this
-/// angle is a hole (FCC: a missing neighbour leaves a 60° cone; the widest
-/// empty cone of a full FCC shell is 45°, towards an octahedral hole).
-pub const GAP_ANGLE_3D: f64 = 54.0 * std::f64::consts::PI / 180.0;
 /// Below this open ratio a bubble looks for holes around it (a full FCC
 /// shell has 12; only bubbles with a missing neighbour search).
 const SEARCH_3D: f64 = 11.5;
@@ -325,7 +352,7 @@ fn sphere_directions(n: usize) -> Vec<V3> {
 }
 
 /// Population control for bubbles in a volume: the rules of [`control`]
-/// with the thresholds for twelve neighbours, and holes found as the
+/// with the thresholds for twelve neighbours ([`PopulationParams::VOLUME`]), and holes found as the
 /// direction farthest from every neighbour (sampled directions refined by
 /// pushing away from the nearest neighbour directions).
 pub fn control_volume<C: Carrier>(
@@ -334,6 +361,7 @@ pub fn control_volume<C: Carrier>(
     grid: &Grid,
     focus: Option<&[bool]>,
 ) -> Result<(usize, usize), MeshError> {
+    let prm = PopulationParams::VOLUME;
     let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
@@ -342,10 +370,10 @@ pub fn control_volume<C: Carrier>(
         adj,
         deleted,
         to_delete,
-    } = crowding(n, nf, pairs, &focused, EXCESS_3D);
+    } = crowding(n, nf, pairs, &focused, prm.excess);
 
     let dirs = sphere_directions(96);
-    let cos_gap = GAP_ANGLE_3D.cos();
+    let cos_gap = prm.gap_angle.cos();
     let mut new = NewBubbles::new(sys);
     let cell_h = new.cell_h;
     let mut units: Vec<V3> = Vec::new();
@@ -385,7 +413,7 @@ pub fn control_volume<C: Carrier>(
         // candidate directions, emptiest first
         let mut scored: Vec<(f64, V3)> = dirs.iter().map(|u| (nearest(u).0, *u)).collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let is_open = i >= nf && open_ratio < OPEN_3D;
+        let is_open = i >= nf && open_ratio < prm.open;
         for &(_, u0) in scored.iter().take(4) {
             // refine: step away from the nearest neighbour direction
             let mut u = u0;
@@ -409,9 +437,9 @@ pub fn control_volume<C: Carrier>(
             }
             let c = nearest(&u).0;
             let fit = if c < cos_gap {
-                FIT
+                prm.fit
             } else if is_open {
-                FIT_OPEN
+                prm.fit_open
             } else {
                 break;
             };
@@ -443,7 +471,7 @@ mod tests {
     }
 
     /// An excess bubble (§4.7) is deleted: a duplicate placed at 0.1 d from
-    /// a lattice bubble overlaps it (E ≈ 0.9 > EXCESS) and one of the two
+    /// a lattice bubble overlaps it (E ≈ 0.9 > `excess`) and one of the two
     /// goes; nothing is added to a full lattice.
     #[test]
     fn a_crowded_bubble_is_deleted() {
@@ -457,7 +485,7 @@ mod tests {
         assert_eq!(sys.n(), before);
     }
 
-    /// A hole in the lattice is a gap wider than GAP_ANGLE around the
+    /// A hole in the lattice is a gap wider than `gap_angle` around the
     /// bubbles on its rim: one round adds bubbles, all of them in the hole,
     /// and deletes none.
     #[test]

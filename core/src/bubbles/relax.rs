@@ -389,6 +389,7 @@ impl<'a, C: Carrier> System<'a, C> {
     /// Whether stage 2 is done after `step`: the potential energy reached a
     /// plateau, or nothing moves more than the tolerance, in both cases
     /// with population control settled.
+    #[allow(clippy::manual_is_multiple_of)] // is_multiple_of needs Rust 1.87
     fn settled(
         &self,
         st: &mut Relaxation,

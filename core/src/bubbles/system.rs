@@ -89,16 +89,14 @@ impl Default for RelaxSettings {
     }
 }
 
-/// A pair of interacting bubbles (i < j not implied).
+/// A pair of interacting bubbles (i < j not implied), for population
+/// control's overlap ratios.
 #[derive(Clone, Copy, Debug)]
 pub struct Pair {
     pub i: u32,
     pub j: u32,
-    /// distance / stable distance
+    /// distance / stable distance (0 for coincident bubbles)
     pub w: f64,
-    /// unit vector from j to i
-    pub dir: V3,
-    pub r0: f64,
 }
 
 impl<'a, C: Carrier> System<'a, C> {
@@ -211,19 +209,13 @@ impl<'a, C: Carrier> System<'a, C> {
                         i: i as u32,
                         j: j as u32,
                         w,
-                        dir: delta / r,
-                        r0,
                     });
                 } else if r == 0.0 {
-                    // coincident bubbles: push apart along an arbitrary but
-                    // deterministic tangent direction
-                    let (t1, _) = self.carrier.frame(self.params[i]);
+                    // coincident bubbles: the most overlapping pair
                     out.push(Pair {
                         i: i as u32,
                         j: j as u32,
                         w: 0.0,
-                        dir: t1,
-                        r0,
                     });
                 }
             });

@@ -10,9 +10,10 @@
 //! coarser tolerance, so the edges' nodes, and every mesh after them, would
 //! change.
 
+pub(crate) mod placement;
+
 use crate::bubbles::{dynamics, force};
 use crate::error::{check_spacing, MeshError};
-use crate::face::placement;
 use crate::geom::{Curve, P3, V3};
 use crate::mesh::{Mesh, Node};
 use crate::model::{EntityRef, Model};

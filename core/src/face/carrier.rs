@@ -107,7 +107,7 @@ impl Carrier for OnFace<'_> {
             }
         };
         let uv = self.region.wrap(uv);
-        if !(uv[0].is_finite() && uv[1].is_finite()) || !self.contains(uv) {
+        if !uv[0].is_finite() || !uv[1].is_finite() || !self.contains(uv) {
             return None;
         }
         Some((self.surface.point(uv[0], uv[1]), uv))
@@ -164,7 +164,7 @@ mod tests {
         let plane = Plane::xy();
         let carrier = OnFace::new(
             &plane,
-            Region::new(&[boundary.clone()]),
+            Region::new(std::slice::from_ref(&boundary)),
             EntityRef::new(2, 0),
         );
         let mut sys = testing::system(carrier, &s, boundary, 2);

@@ -31,8 +31,9 @@ use std::collections::{HashMap, VecDeque};
 use crate::geom::{P3, V3};
 
 use crate::bubbles::constraint::Carrier;
+use crate::bubbles::MAX_BUBBLES_PER_ENTITY;
 use crate::error::MeshError;
-use crate::face::placement::{Seed, MAX_BUBBLES_PER_ENTITY};
+use crate::face::placement::{FaceSpacing, Seed};
 
 /// A proposal closer than ACCEPT·(d_i + d_j)/2 to an existing bubble is
 /// rejected. In a hexagonal lattice every point is
@@ -113,7 +114,7 @@ pub fn grow<C: Carrier>(
     carrier: &C,
     start: &Seed,
     obstacles: &[(P3, f64)],
-    d_at: &mut dyn FnMut(&P3, [f64; 2]) -> Result<f64, MeshError>,
+    d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
     let mut grid = LevelGrid::new();
     let mut all_d: Vec<f64> = Vec::with_capacity(obstacles.len());

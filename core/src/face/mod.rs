@@ -2,15 +2,30 @@
 //! quadtree, stage 2 by damped dynamics with population control, bubbles
 //! held on the face through their (u,v) (§4.5); then constrained Delaunay
 //! connection in (u,v) and the 2D improvement.
+//!
+//! [`mesh_face`] runs the phases in order; each is a method of one face's
+//! context (`FaceJob`):
+//! - the boundary bubbles: the nodes of the face's edges and embedded
+//!   entities, fixed (§3.2.3), with their (u,v), and the face's [`region`];
+//! - stage 1: [`placement`] (the oblique quadtree, §4.1.2), on curved faces
+//!   after a crystal from [`growth`];
+//! - stage 2: [`crate::bubbles::relax`] with the face's [`carrier`];
+//! - connection: [`connect`] (constrained Delaunay in (u,v), caps in the
+//!   tangent plane near singular points), then [`improve`];
+//! - on a graded planar face, a second start from the lattice conformal to
+//!   the spacing ([`conformal`]), kept when it is better;
+//! - the new nodes and triangles into the mesh.
+//!
+//! [`orient`] turns the faces of a closed shell outward afterwards.
 
-pub mod carrier;
-pub mod conformal;
-pub mod connect;
-pub mod growth;
-pub mod improve;
-pub mod orient;
-pub mod placement;
-pub mod region;
+pub(crate) mod carrier;
+pub(crate) mod conformal;
+pub(crate) mod connect;
+pub(crate) mod growth;
+pub(crate) mod improve;
+pub(crate) mod orient;
+pub(crate) mod placement;
+pub(crate) mod region;
 
 use std::time::Instant;
 
@@ -787,6 +802,10 @@ fn isometric(surface: &dyn crate::geom::Surface, lo: [f64; 2], hi: [f64; 2]) -> 
         && dv.su.dot(&dv.sv).abs() < 1e-9
 }
 
+/// What a kept conformal restart reports: the cones placed (five-,
+/// seven-valent) and the second stage 2's statistics.
+type Restart = ((usize, usize), system::RelaxStats);
+
 /// Rebuilds a graded planar face from the lattice conformal to its spacing
 /// (`conformal::lattice_seeds` over the current mesh) as a new stage 1, and
 /// keeps the result if its mean radius ratio is higher and its edges are in
@@ -799,7 +818,7 @@ fn conformal_restart<C: constraint::Carrier>(
     fixed: &Boundary,
     fe: EntityRef,
     settings: &system::RelaxSettings,
-) -> Result<Option<((usize, usize), system::RelaxStats)>, MeshError> {
+) -> Result<Option<Restart>, MeshError> {
     let (segments, boundary) = (&fixed.segments[..], &fixed.directed[..]);
     let loop_locals = &fixed.loop_locals;
     let nf = sys.n_fixed;
@@ -840,8 +859,8 @@ fn conformal_restart<C: constraint::Carrier>(
                 if a < b {
                     let r = (sys.pos[a] - sys.pos[b]).norm() / (0.5 * (sys.d[a] + sys.d[b]));
                     all += 1;
-                    inside += (r >= std::f64::consts::FRAC_1_SQRT_2
-                        && r <= std::f64::consts::SQRT_2) as usize;
+                    inside += (std::f64::consts::FRAC_1_SQRT_2..=std::f64::consts::SQRT_2)
+                        .contains(&r) as usize;
                 }
             }
         }
