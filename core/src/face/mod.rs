@@ -42,25 +42,47 @@ use crate::spacing::{Spacing, SpacingQuery};
 use carrier::OnFace;
 use region::Region;
 
-/// Seed a boundary layer before the quadtree lattice (measured: no gain on
-/// cases A–C with the current relaxation, so off; kept for surfaces).
-const APEX_LAYER: bool = false;
+/// The face pipeline's tuning, each value with how it was measured.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FaceParams {
+    /// Seed a boundary layer before the quadtree lattice (measured: no gain
+    /// on cases A–C with the current relaxation, so off; kept for surfaces).
+    pub apex_layer: bool,
+    /// Bubbles closer than this many spacings to a singular point of the
+    /// parametrization are connected in their tangent plane (a cap), not in
+    /// (u,v).
+    pub cap_radius: f64,
+    /// Rounds of edge relaxation and Delaunay flips after connection
+    /// ([`improve`]).
+    pub improve_rounds: usize,
+    /// After a conformal-lattice start ([`conformal`]), the mean lift runs
+    /// over the bubbles of every triangle below this radius ratio, for at
+    /// most `lattice_mean_rounds` rounds (cases B and C: 0.99 and 6 rounds
+    /// gave a mean 0.001 lower, 0.9999 and 20 rounds the same as this).
+    pub lattice_mean_q: f64,
+    /// See `lattice_mean_q`.
+    pub lattice_mean_rounds: usize,
+}
 
-/// Bubbles closer than this many spacings to a singular point of the
-/// parametrization are connected in their tangent plane (a cap), not in (u,v).
-const CAP_RADIUS: f64 = 5.0;
+impl FaceParams {
+    /// The values in use.
+    pub const DEFAULT: FaceParams = FaceParams {
+        apex_layer: false,
+        cap_radius: 5.0,
+        improve_rounds: 6,
+        lattice_mean_q: 0.999,
+        lattice_mean_rounds: 10,
+    };
+}
 
-/// Rounds of edge relaxation and Delaunay flips after connection
-/// ([`improve`]).
-const IMPROVE_ROUNDS: usize = 6;
+impl Default for FaceParams {
+    fn default() -> Self {
+        FaceParams::DEFAULT
+    }
+}
 
-/// After a conformal-lattice start (`conformal`), the mean lift runs over
-/// the bubbles of every triangle below this radius ratio, for at most
-/// [`LATTICE_MEAN_ROUNDS`] rounds (cases B and C: 0.99 and 6 rounds gave a
-/// mean 0.001 lower, 0.9999 and 20 rounds the same as this).
-const LATTICE_MEAN_Q: f64 = 0.999;
-
-const LATTICE_MEAN_ROUNDS: usize = 10;
+/// The face pipeline's settings.
+const PRM: FaceParams = FaceParams::DEFAULT;
 
 /// What happened on one face.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -191,8 +213,8 @@ pub(crate) fn mesh_face(
 
     let t3 = Instant::now();
     let mut tris = job.connect(&sys, &boundary)?;
-    if !inputs.opts.fast && IMPROVE_ROUNDS > 0 {
-        improve::improve(&mut sys, &mut tris, &boundary.segments, IMPROVE_ROUNDS)?;
+    if !inputs.opts.fast && PRM.improve_rounds > 0 {
+        improve::improve(&mut sys, &mut tris, &boundary.segments, PRM.improve_rounds)?;
     }
     let t_lattice = Instant::now();
     if job.wants_conformal_lattice(lo, hi) {
@@ -493,7 +515,7 @@ impl<'a> FaceJob<'a> {
             .map(|&id| mesh.nodes[id as usize].pos)
             .collect();
         let fixed_d: Vec<f64> = boundary.ids.iter().map(|&id| node_d[id as usize]).collect();
-        let apex = if APEX_LAYER {
+        let apex = if PRM.apex_layer {
             placement::apex_seeds(
                 &carrier,
                 &boundary.directed,
@@ -530,7 +552,7 @@ impl<'a> FaceJob<'a> {
         let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
-        let check_seeds = spacing.constant().is_none() || APEX_LAYER || !surface.is_planar();
+        let check_seeds = spacing.constant().is_none() || PRM.apex_layer || !surface.is_planar();
         let seeds = uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
         let n_fixed = boundary.ids.len();
         let mut sys = System {
@@ -617,7 +639,7 @@ impl<'a> FaceJob<'a> {
                 !on_segment[i]
                     && poles
                         .iter()
-                        .any(|q| (sys.pos[i] - q).norm() < CAP_RADIUS * sys.d[i])
+                        .any(|q| (sys.pos[i] - q).norm() < PRM.cap_radius * sys.d[i])
             })
             .collect();
         let pts = connect::SurfacePoints {
@@ -889,13 +911,13 @@ fn conformal_restart<C: constraint::Carrier>(
         let carrier = &sys.carrier;
         let mut new_tris =
             connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;
-        improve::improve(sys, &mut new_tris, segments, IMPROVE_ROUNDS)?;
+        improve::improve(sys, &mut new_tris, segments, PRM.improve_rounds)?;
         improve::lift_mean(
             sys,
             &mut new_tris,
             segments,
-            LATTICE_MEAN_Q,
-            LATTICE_MEAN_ROUNDS,
+            PRM.lattice_mean_q,
+            PRM.lattice_mean_rounds,
         )?;
         Ok((relax, new_tris))
     })();
