@@ -31,7 +31,8 @@ pub fn phi(w: f64) -> f64 {
     }
 }
 
-/// φ'(w) = dφ/dw.
+/// φ'(w) = dφ/dw (for the test of the conditions of eq. 4.2.4).
+#[cfg(test)]
 #[inline]
 pub fn dphi(w: f64) -> f64 {
     if w >= CUTOFF {

@@ -19,15 +19,15 @@
 //!   in a tangent hexagonal packing, 5 at a five-valent node, and
 //!   6(3 − 2w) for a hexagonal patch uniformly stretched to w.
 //!
-//! Thresholds ([`EXCESS`], [`OPEN`]) were set so that the stable band of a
+//! Thresholds ([`PopulationParams`]: `excess`, `open`) were set so that the stable band of a
 //! uniformly strained hexagonal patch is w ∈ [0.88, 1.17] — inside the
 //! mesh's target band L/d ∈ [1/√2, √2] with margin — and then checked on the
-//! benchmark cases A–C (`bench/run_2d.py`): lowering EXCESS below 0.6 made
+//! benchmark cases A–C (`bench/run_2d.py`): lowering `excess` below 0.6 made
 //! deletion and insertion chase each other near graded boundaries; raising
-//! OPEN above 4.5 split bubbles at ordinary five-valent nodes.
+//! `open` above 4.5 split bubbles at ordinary five-valent nodes.
 //! A third rule fills holes: an angular gap between consecutive neighbours
-//! wider than [`GAP_ANGLE`] gets a bubble at distance d_i on its bisector if
-//! that spot is free (no bubble closer than [`FIT`]·r0).
+//! wider than `gap_angle` gets a bubble at distance d_i on its bisector if
+//! that spot is free (no bubble closer than `fit`·r0).
 
 use std::collections::HashMap;
 
@@ -38,17 +38,57 @@ use crate::bubbles::grid::Grid;
 use crate::bubbles::system::{Pair, System};
 use crate::error::MeshError;
 
-/// Delete a free bubble whose excess ratio exceeds this.
-pub const EXCESS: f64 = 0.7;
-/// A bubble whose open ratio is below this is open (lacks neighbours).
-pub const OPEN: f64 = 4.0;
-/// Angular gap (radians) between neighbours that is a hole (hexagonal: 60°).
-pub const GAP_ANGLE: f64 = 100.0 * std::f64::consts::PI / 180.0;
-/// A new bubble must be at least FIT·r0 from every bubble (hole rule).
-pub const FIT: f64 = 0.85;
-/// The same for the open rule, which inserts into stretched regions where
-/// the dynamics will make room.
-pub const FIT_OPEN: f64 = 0.6;
+/// The thresholds of population control for one meshing dimension (see
+/// the module docs for how the surface values were calibrated, and
+/// [`PopulationParams::VOLUME`] for the volume's).
+#[derive(Clone, Copy, Debug)]
+pub struct PopulationParams {
+    /// Delete a free bubble whose excess ratio exceeds this.
+    pub excess: f64,
+    /// A bubble whose open ratio is below this is open (lacks neighbours).
+    pub open: f64,
+    /// A hole: on a surface, an angular gap (radians) between consecutive
+    /// neighbours wider than this (hexagonal: 60°); in a volume, a
+    /// direction whose nearest neighbour direction is farther than this.
+    pub gap_angle: f64,
+    /// A new bubble must be at least fit·r0 from every bubble (hole rule).
+    pub fit: f64,
+    /// The same for the open rule, which inserts into stretched regions
+    /// where the dynamics will make room.
+    pub fit_open: f64,
+}
+
+impl PopulationParams {
+    /// On a surface (six neighbours).
+    pub const SURFACE: PopulationParams = PopulationParams {
+        excess: 0.7,
+        open: 4.0,
+        gap_angle: 100.0 * std::f64::consts::PI / 180.0,
+        fit: 0.85,
+        fit_open: 0.6,
+    };
+    /// In a volume (§4.7 for twelve neighbours). A face-centred cubic
+    /// packing has 12 tangent neighbours, so both ratios scale by 12/6 from
+    /// the surface values: a uniformly compressed FCC patch has
+    /// E = 12(1 − w), so `excess` deletes below w ≈ 0.88, and a bubble in
+    /// an octahedral (tetrahedral) hole has E = 1.76 (1.55); a uniformly
+    /// stretched patch has O = 12(3 − 2w), so `open` splits above
+    /// w ≈ 1.17 — the same stable band as on surfaces. The gap angle: FCC
+    /// leaves a 60° cone where a neighbour is missing; the widest empty cone
+    /// of a full FCC shell is 45°, towards an octahedral hole.
+    pub const VOLUME: PopulationParams = PopulationParams {
+        excess: 1.4,
+        open: 8.0,
+        gap_angle: 54.0 * std::f64::consts::PI / 180.0,
+        ..PopulationParams::SURFACE
+    };
+}
+
+impl Default for PopulationParams {
+    fn default() -> Self {
+        PopulationParams::SURFACE
+    }
+}
 
 /// One round of population control on `sys`, given its current pairs and
 /// grid. With `focus`, only the focused bubbles are deleted or seed new
@@ -60,6 +100,7 @@ pub fn control<C: Carrier>(
     grid: &Grid,
     focus: Option<&[bool]>,
 ) -> Result<(usize, usize), MeshError> {
+    let prm = PopulationParams::SURFACE;
     let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
@@ -68,19 +109,11 @@ pub fn control<C: Carrier>(
         adj,
         deleted,
         to_delete,
-    } = crowding(n, nf, pairs, &focused, EXCESS);
+    } = crowding(n, nf, pairs, &focused, prm.excess);
 
     // --- insertion
-    let mut new_bubbles: Vec<(P3, [f64; 2], f64)> = Vec::new();
-    let mut new_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    let cell_h = sys
-        .d
-        .iter()
-        .cloned()
-        .fold(0.0f64, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let key = |p: &P3| [0, 1, 2].map(|k| (p[k] / cell_h).floor() as i64);
-    let dmax = cell_h;
+    let mut new = NewBubbles::new(sys);
+    let dmax = new.cell_h;
     let mut angles: Vec<f64> = Vec::new();
     for i in 0..n {
         if deleted[i] || !focused(i) {
@@ -119,12 +152,12 @@ pub fn control<C: Carrier>(
             }
             gaps.sort_by(|a, b| b.0.total_cmp(&a.0));
         }
-        let is_open = i >= nf && open_ratio < OPEN;
+        let is_open = i >= nf && open_ratio < prm.open;
         for &(width, bis) in gaps.iter().take(3) {
-            let fit = if width > GAP_ANGLE {
-                FIT
+            let fit = if width > prm.gap_angle {
+                prm.fit
             } else if is_open {
-                FIT_OPEN
+                prm.fit_open
             } else {
                 break;
             };
@@ -133,28 +166,14 @@ pub fn control<C: Carrier>(
                 continue;
             };
             let dc = sys.spacing_at(&pc, uv)?;
-            if spot_is_free(
-                sys,
-                grid,
-                &new_bubbles,
-                &new_cells,
-                &key,
-                &pc,
-                dc,
-                dmax.max(dc),
-                fit,
-            ) {
-                new_cells
-                    .entry(key(&pc))
-                    .or_default()
-                    .push(new_bubbles.len());
-                new_bubbles.push((pc, uv, dc));
+            if new.spot_is_free(sys, grid, &pc, dc, dmax.max(dc), fit) {
+                new.push(pc, uv, dc);
                 break;
             }
         }
     }
 
-    Ok(apply(sys, to_delete, new_bubbles))
+    Ok(apply(sys, to_delete, new.bubbles))
 }
 
 /// The pair adjacency in compressed rows and the deletion step shared by
@@ -239,62 +258,81 @@ fn apply<C: Carrier>(
     (to_delete.len(), added)
 }
 
-/// Whether no existing or newly placed bubble is closer than
-/// `fit`·(d + d_k)/2 to `p`.
-#[allow(clippy::too_many_arguments)]
-fn spot_is_free<C: Carrier>(
-    sys: &System<'_, C>,
-    grid: &Grid,
-    new_bubbles: &[(P3, [f64; 2], f64)],
-    new_cells: &HashMap<[i64; 3], Vec<usize>>,
-    key: &impl Fn(&P3) -> [i64; 3],
-    p: &P3,
-    d: f64,
-    dmax: f64,
-    fit: f64,
-) -> bool {
-    let mut free = true;
-    grid.query(p, fit * 0.5 * (d + dmax), |k| {
-        let k = k as usize;
-        if free && (sys.pos[k] - p).norm() < fit * 0.5 * (d + sys.d[k]) {
-            free = false;
+/// The bubbles a round of population control adds, with a hash grid of
+/// cells `cell_h` wide (the largest diameter) to find them.
+struct NewBubbles {
+    bubbles: Vec<(P3, [f64; 2], f64)>,
+    cells: HashMap<[i64; 3], Vec<usize>>,
+    cell_h: f64,
+}
+
+impl NewBubbles {
+    fn new<C: Carrier>(sys: &System<'_, C>) -> Self {
+        let cell_h = sys
+            .d
+            .iter()
+            .cloned()
+            .fold(0.0f64, f64::max)
+            .max(f64::MIN_POSITIVE);
+        NewBubbles {
+            bubbles: Vec::new(),
+            cells: HashMap::new(),
+            cell_h,
         }
-    });
-    if !free {
-        return false;
     }
-    let c = key(p);
-    for dx in -1..=1 {
-        for dy in -1..=1 {
-            for dz in -1..=1 {
-                if let Some(v) = new_cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
-                    for &k in v {
-                        let (q, _, dk) = new_bubbles[k];
-                        if (q - p).norm() < fit * 0.5 * (d + dk) {
-                            return false;
+
+    fn key(&self, p: &P3) -> [i64; 3] {
+        [0, 1, 2].map(|k| (p[k] / self.cell_h).floor() as i64)
+    }
+
+    fn push(&mut self, p: P3, uv: [f64; 2], d: f64) {
+        self.cells
+            .entry(self.key(&p))
+            .or_default()
+            .push(self.bubbles.len());
+        self.bubbles.push((p, uv, d));
+    }
+
+    /// Whether no existing or newly placed bubble is closer than
+    /// `fit`·(d + d_k)/2 to `p` (`dmax`: the largest diameter near `p`).
+    fn spot_is_free<C: Carrier>(
+        &self,
+        sys: &System<'_, C>,
+        grid: &Grid,
+        p: &P3,
+        d: f64,
+        dmax: f64,
+        fit: f64,
+    ) -> bool {
+        let mut free = true;
+        grid.query(p, fit * 0.5 * (d + dmax), |k| {
+            let k = k as usize;
+            if free && (sys.pos[k] - p).norm() < fit * 0.5 * (d + sys.d[k]) {
+                free = false;
+            }
+        });
+        if !free {
+            return false;
+        }
+        let c = self.key(p);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(v) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                        for &k in v {
+                            let (q, _, dk) = self.bubbles[k];
+                            if (q - p).norm() < fit * 0.5 * (d + dk) {
+                                return false;
+                            }
                         }
                     }
                 }
             }
         }
+        true
     }
-    true
 }
 
-/// Volume thresholds (§4.7 for twelve neighbours). A face-centred cubic
-/// packing has 12 tangent neighbours, so both ratios scale by 12/6 from the
-/// surface values: a uniformly compressed FCC patch has E = 12(1 − w), so
-/// [`EXCESS_3D`] deletes below w ≈ 0.88, and a bubble in an octahedral
-/// (tetrahedral) hole has E = 1.76 (1.55); a uniformly stretched patch has
-/// O = 12(3 − 2w), so [`OPEN_3D`] splits above w ≈ 1.17 — the same stable
-/// band as on surfaces.
-pub const EXCESS_3D: f64 = 1.4;
-/// See [`EXCESS_3D`].
-pub const OPEN_3D: f64 = 8.0;
-/// A direction whose nearest neighbour direction is farther than this
-/// angle is a hole (FCC: a missing neighbour leaves a 60° cone; the widest
-/// empty cone of a full FCC shell is 45°, towards an octahedral hole).
-pub const GAP_ANGLE_3D: f64 = 54.0 * std::f64::consts::PI / 180.0;
 /// Below this open ratio a bubble looks for holes around it (a full FCC
 /// shell has 12; only bubbles with a missing neighbour search).
 const SEARCH_3D: f64 = 11.5;
@@ -314,7 +352,7 @@ fn sphere_directions(n: usize) -> Vec<V3> {
 }
 
 /// Population control for bubbles in a volume: the rules of [`control`]
-/// with the thresholds for twelve neighbours, and holes found as the
+/// with the thresholds for twelve neighbours ([`PopulationParams::VOLUME`]), and holes found as the
 /// direction farthest from every neighbour (sampled directions refined by
 /// pushing away from the nearest neighbour directions).
 pub fn control_volume<C: Carrier>(
@@ -323,6 +361,7 @@ pub fn control_volume<C: Carrier>(
     grid: &Grid,
     focus: Option<&[bool]>,
 ) -> Result<(usize, usize), MeshError> {
+    let prm = PopulationParams::VOLUME;
     let focused = |i: usize| focus.is_none_or(|f| f[i]);
     let n = sys.n();
     let nf = sys.n_fixed;
@@ -331,19 +370,12 @@ pub fn control_volume<C: Carrier>(
         adj,
         deleted,
         to_delete,
-    } = crowding(n, nf, pairs, &focused, EXCESS_3D);
+    } = crowding(n, nf, pairs, &focused, prm.excess);
 
     let dirs = sphere_directions(96);
-    let cos_gap = GAP_ANGLE_3D.cos();
-    let mut new_bubbles: Vec<(P3, [f64; 2], f64)> = Vec::new();
-    let mut new_cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    let cell_h = sys
-        .d
-        .iter()
-        .cloned()
-        .fold(0.0f64, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let key = |p: &P3| [0, 1, 2].map(|k| (p[k] / cell_h).floor() as i64);
+    let cos_gap = prm.gap_angle.cos();
+    let mut new = NewBubbles::new(sys);
+    let cell_h = new.cell_h;
     let mut units: Vec<V3> = Vec::new();
     for i in 0..n {
         if deleted[i] || !focused(i) {
@@ -381,7 +413,7 @@ pub fn control_volume<C: Carrier>(
         // candidate directions, emptiest first
         let mut scored: Vec<(f64, V3)> = dirs.iter().map(|u| (nearest(u).0, *u)).collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let is_open = i >= nf && open_ratio < OPEN_3D;
+        let is_open = i >= nf && open_ratio < prm.open;
         for &(_, u0) in scored.iter().take(4) {
             // refine: step away from the nearest neighbour direction
             let mut u = u0;
@@ -405,9 +437,9 @@ pub fn control_volume<C: Carrier>(
             }
             let c = nearest(&u).0;
             let fit = if c < cos_gap {
-                FIT
+                prm.fit
             } else if is_open {
-                FIT_OPEN
+                prm.fit_open
             } else {
                 break;
             };
@@ -415,25 +447,108 @@ pub fn control_volume<C: Carrier>(
                 continue;
             };
             let dc = sys.spacing_at(&pc, uv)?;
-            if spot_is_free(
-                sys,
-                grid,
-                &new_bubbles,
-                &new_cells,
-                &key,
-                &pc,
-                dc,
-                cell_h.max(dc),
-                fit,
-            ) {
-                new_cells
-                    .entry(key(&pc))
-                    .or_default()
-                    .push(new_bubbles.len());
-                new_bubbles.push((pc, uv, dc));
+            if new.spot_is_free(sys, grid, &pc, dc, cell_h.max(dc), fit) {
+                new.push(pc, uv, dc);
                 break;
             }
         }
     }
-    Ok(apply(sys, to_delete, new_bubbles))
+    Ok(apply(sys, to_delete, new.bubbles))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::system::RelaxSettings;
+    use crate::bubbles::testing::{hex_fill, square_system, Square};
+    use crate::spacing::Constant;
+
+    fn one_round(sys: &mut System<'_, Square>) -> (usize, usize) {
+        let grid = sys.grid();
+        let mut pairs = Vec::new();
+        sys.pairs(&grid, &mut pairs, None);
+        control(sys, &pairs, &grid, None).unwrap()
+    }
+
+    /// An excess bubble (§4.7) is deleted: a duplicate placed at 0.1 d from
+    /// a lattice bubble overlaps it (E ≈ 0.9 > `excess`) and one of the two
+    /// goes; nothing is added to a full lattice.
+    #[test]
+    fn a_crowded_bubble_is_deleted() {
+        let s = Constant(0.05);
+        let mut sys = square_system(&s);
+        hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
+        let before = sys.n();
+        let p = sys.pos[sys.n() / 2];
+        sys.push_free(p + V3::new(0.005, 0.0, 0.0), [p.x + 0.005, p.y], 0.05);
+        assert_eq!(one_round(&mut sys), (1, 0));
+        assert_eq!(sys.n(), before);
+    }
+
+    /// A hole in the lattice is a gap wider than `gap_angle` around the
+    /// bubbles on its rim: one round adds bubbles, all of them in the hole,
+    /// and deletes none.
+    #[test]
+    fn a_gap_gets_bubbles_in_one_round() {
+        let s = Constant(0.05);
+        let mut sys = square_system(&s);
+        let hole = |x: f64, y: f64| (x - 0.5).powi(2) + (y - 0.5).powi(2) < 0.12f64.powi(2);
+        hex_fill(&mut sys, 0.05, 0.05, hole);
+        let before = sys.n();
+        let (deleted, added) = one_round(&mut sys);
+        assert_eq!(deleted, 0);
+        assert!(added >= 5, "added {added}");
+        for i in before..sys.n() {
+            let p = sys.pos[i];
+            assert!(
+                (p.x - 0.5).hypot(p.y - 0.5) < 0.12 + 0.5 * 0.05,
+                "new bubble at {p:?} outside the hole"
+            );
+        }
+    }
+
+    /// Through stage 2, population control refills the hole: its area holds
+    /// about 0.12²π / (√3/2 · 0.05²) ≈ 21 bubbles.
+    #[test]
+    fn stage_two_refills_a_gap() {
+        let s = Constant(0.05);
+        let mut sys = square_system(&s);
+        let hole = |x: f64, y: f64| (x - 0.5).powi(2) + (y - 0.5).powi(2) < 0.12f64.powi(2);
+        hex_fill(&mut sys, 0.05, 0.05, hole);
+        let count_in_hole = |sys: &System<'_, Square>| {
+            (sys.n_fixed..sys.n())
+                .filter(|&i| hole(sys.pos[i].x, sys.pos[i].y))
+                .count()
+        };
+        assert_eq!(count_in_hole(&sys), 0);
+        let stats = sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+        assert!(stats.added >= 10, "added {}", stats.added);
+        let back = count_in_hole(&sys);
+        assert!(back >= 15, "only {back} bubbles back in the hole");
+    }
+
+    /// The bubble count population control arrives at is the one the
+    /// thesis estimates (eq. 4.7.2 with the hexagonal A0 = √3/2, each
+    /// boundary bubble taking half its share): starting from a quarter of
+    /// it (a lattice of twice the spacing) or from too many (a lattice of
+    /// 0.8 the spacing), stage 2 ends within 8 % of the estimate.
+    #[test]
+    fn population_control_reaches_the_estimated_count() {
+        let d = 0.05;
+        let a0 = 3f64.sqrt() / 2.0;
+        let n_boundary = 4.0 / d;
+        let estimate = 1.0 / (a0 * d * d) - 0.5 * n_boundary;
+        for side in [2.0 * d, 0.8 * d] {
+            let s = Constant(d);
+            let mut sys = square_system(&s);
+            hex_fill(&mut sys, side, d, |_, _| false);
+            let start = (sys.n() - sys.n_fixed) as f64;
+            sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+            let n = (sys.n() - sys.n_fixed) as f64;
+            assert!(
+                (n - estimate).abs() < 0.08 * estimate,
+                "lattice side {side}: {start} -> {n} bubbles, {estimate:.0} estimated"
+            );
+        }
+    }
 }

@@ -1,10 +1,19 @@
 //! Edge meshing (thesis §4.1.1, §4.2–4.5): stage 1 by recursive bisection
 //! of the edge's parameter range, stage 2 relaxes the chain of bubbles along
 //! the curve to the force balance, with the end vertices fixed.
+//!
+//! The chain has its own Euler loop ([`relax_chain`]) rather than the
+//! bubble [`crate::bubbles::system::System`] with a curve carrier: a chain's
+//! neighbours are known (the next bubbles along the curve), its bubbles
+//! must keep their order, and it has no population control; the `System`
+//! would find neighbours by a grid, let balanced bubbles sleep and stop at a
+//! coarser tolerance, so the edges' nodes, and every mesh after them, would
+//! change.
+
+pub(crate) mod placement;
 
 use crate::bubbles::{dynamics, force};
 use crate::error::{check_spacing, MeshError};
-use crate::face::placement;
 use crate::geom::{Curve, P3, V3};
 use crate::mesh::{Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -72,9 +81,35 @@ pub(crate) fn mesh_edge(
     Ok(ids)
 }
 
+/// Settings of the edge chain's relaxation ([`relax_chain`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ChainParams {
+    /// Euler steps at most: a cap for a chain that does not settle, not a
+    /// tuned value (a chain settles long before).
+    pub max_steps: usize,
+    /// The chain has settled when no bubble moved more than this fraction
+    /// of its diameter in a step.
+    pub tol: f64,
+    /// A bubble stays this fraction of the edge's parameter range away from
+    /// its neighbours' parameters, so the chain keeps its order.
+    pub order_gap: f64,
+}
+
+impl Default for ChainParams {
+    fn default() -> Self {
+        ChainParams {
+            max_steps: 2000,
+            tol: 1e-6,
+            order_gap: 1e-9,
+        }
+    }
+}
+
 /// Stage 2 on a curve: damped dynamics of the chain of edge bubbles with the
 /// end bubbles fixed, each bubble kept on the curve by eq. 4.5.1
-/// (Δt = Δx·C'/|C'|²). Bubbles keep their order along the curve.
+/// (Δt = Δx·C'/|C'|²). Bubbles keep their order along the curve. Forces are
+/// taken at the start of a step (eq. 4.4.6) from the two neighbours along
+/// the chain; the bubbles then move in order along the curve.
 fn relax_chain(
     curve: &dyn Curve,
     t0: f64,
@@ -101,8 +136,9 @@ fn relax_chain(
     for k in 1..=n {
         d[k] = d_at(t[k], &p[k])?;
     }
+    let prm = ChainParams::default();
     let mut v = vec![V3::zeros(); n + 2];
-    for _step in 0..2000 {
+    for _step in 0..prm.max_steps {
         let mut max_move: f64 = 0.0;
         let mut f = vec![V3::zeros(); n + 2];
         for k in 0..=n {
@@ -127,8 +163,8 @@ fn relax_chain(
             // keep the velocity tangent
             v[k] = tan * (v[k].dot(&tan) / tt);
             let dt = dx.dot(&tan) / tt; // eq. 4.5.1
-            let lo = t[k - 1] + 1e-9 * (t1 - t0);
-            let hi = t[k + 1] - 1e-9 * (t1 - t0);
+            let lo = t[k - 1] + prm.order_gap * (t1 - t0);
+            let hi = t[k + 1] - prm.order_gap * (t1 - t0);
             let nt = (t[k] + dt).clamp(lo.min(hi), hi.max(lo));
             let np = curve.point(nt);
             max_move = max_move.max((np - p[k]).norm() / d[k]);
@@ -136,7 +172,7 @@ fn relax_chain(
             p[k] = np;
             d[k] = d_at(nt, &np)?;
         }
-        if max_move < 1e-6 {
+        if max_move < prm.tol {
             break;
         }
     }

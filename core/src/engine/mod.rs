@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use crate::edge::mesh_edge;
 use crate::error::check_spacing;
-use crate::face::{mesh_face, orient, FaceReport};
+use crate::face::{mesh_face, orient, FaceInputs, FaceReport};
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
 use crate::spacing::{Spacing, SpacingQuery};
@@ -259,17 +259,14 @@ fn mesh_once(
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
             let mut face = |grow: bool| {
-                mesh_face(
+                let inputs = FaceInputs {
                     model,
-                    fi,
                     spacing,
                     opts,
-                    &edge_nodes,
-                    &mut mesh,
-                    &node_d,
-                    &mut report.timings,
-                    grow,
-                )
+                    edge_nodes: &edge_nodes,
+                    node_d: &node_d,
+                };
+                mesh_face(&inputs, fi, &mut mesh, &mut report.timings, grow)
             };
             // a grown start that cannot be connected (measured: the dome
             // sheet's pole cap at size 1.5, "constraint segments cross") is

@@ -1,5 +1,5 @@
 //! Seeds from a hexagonal lattice conformal to the spacing, for graded planar
-//! faces (a second start for stage 2's connection; issue 2).
+//! faces (a second start for stage 2 and the connection).
 //!
 //! **Why.** A spacing d(x) is the metric |dx|²/d², whose Gaussian curvature
 //! is d²·Δ log d. A triangular lattice drawn in that metric needs five- and
@@ -22,8 +22,8 @@
 //!    are Neumann with zero target turning, so a hole becomes a straight
 //!    line of the layout and lattice rows can run along it;
 //! 3. cones are added greedily at the node of largest |h| among nodes more
-//!    than [`CONE_EXCLUSION`] spacings from every cone, with
-//!    κ = −sign(h)·π/3, until that |h| < [`CONE_TOL`] (one conjugate-gradient
+//!    than `cone_exclusion` spacings from every cone, with
+//!    κ = −sign(h)·π/3, until that |h| < `cone_tol` (one conjugate-gradient
 //!    solve per cone, warm-started);
 //! 4. the triangles are laid out in the plane breadth-first with the lengths
 //!    ℓ_ij·e^{(φ_i+φ_j)/2} (in units of the spacing); turning by ±60° around
@@ -35,20 +35,20 @@
 //!    triangle hops (one lattice when the face has no hole);
 //! 6. the lattice points inside each laid-out triangle, mapped back by
 //!    barycentric coordinates, are the seeds, less those within
-//!    [`BOUNDARY_GAP`]·d of a boundary or constraint segment and those within
-//!    [`SEED_GAP`]·d of an earlier seed or a fixed node;
+//!    `boundary_gap`·d of a boundary or constraint segment and those within
+//!    `seed_gap`·d of an earlier seed or a fixed node;
 //! 7. holes are Neumann only when the metric makes them nearly closed
-//!    geodesics ([`HOLE_TOL`]); a hole in a nearly uniform spacing is
+//!    geodesics (`hole_tol`); a hole in a nearly uniform spacing is
 //!    Dirichlet like the outer loop.
 //!
-//! The caller (`engine::conformal_restart`) takes the seeds as a new stage 1:
+//! The caller (`face::conformal_restart`) takes the seeds as a new stage 1:
 //! stage 2, connection, improvement and more rounds of the mean lift, and
 //! keeps the result only if its mean radius ratio is higher and its spacing
 //! no worse than the packed mesh's. Measured with `bench/run_2d.py`: case B
 //! 0.9852 / 0.900 → 0.9930 / 0.887 (mean / min radius ratio), case C
 //! 0.9823 / 0.818 → 0.9928 / 0.894, 100 % of edges in [1/√2, √2]; the
 //! flattening and second stage 2 cost about 1.5 s on each (the packing
-//! 0.7 s). Larger faces cost more: see [`MAX_BACKGROUND_NODES`].
+//! 0.7 s). Larger faces cost more: see [`LatticeParams::max_background_nodes`].
 //!
 //! Units: (u,v) of a planar face whose parametrization is an isometry, so a
 //! spacing is a (u,v) length. Invariants: the input triangles are
@@ -61,44 +61,74 @@ use nalgebra::Complex;
 
 type C64 = Complex<f64>;
 
-/// Cone placement stops when |h| (log of the lattice's spacing over d) is
-/// below this everywhere outside the cones' neighbourhoods (buildCones.py:
-/// 0.1 placed 74 cones on case B and lost 0.02 of mean; 0.3 too few).
-pub const CONE_TOL: f64 = 0.2;
-/// Radius, in spacings, of a cone's neighbourhood where |h| is not looked at
-/// (the log singularity of a cone is the lattice's business).
-pub const CONE_EXCLUSION: f64 = 3.0;
-/// Cones of a sign beyond what the curvature of that sign asks for.
-pub const CONE_SLACK: usize = 2;
-/// At most this many cones (a face that needs more has a spacing varying on
-/// the scale of the spacing itself, where a lattice is no better).
-pub const MAX_CONES: usize = 400;
+/// The lattice's tuning, each value with how it was measured.
+#[derive(Clone, Copy, Debug)]
+pub struct LatticeParams {
+    /// Cone placement stops when |h| (log of the lattice's spacing over d)
+    /// is below this everywhere outside the cones' neighbourhoods
+    /// (buildCones.py: 0.1 placed 74 cones on case B and lost 0.02 of mean;
+    /// 0.3 too few).
+    pub cone_tol: f64,
+    /// Radius, in spacings, of a cone's neighbourhood where |h| is not
+    /// looked at (the log singularity of a cone is the lattice's business).
+    pub cone_exclusion: f64,
+    /// Cones of a sign beyond what the curvature of that sign asks for.
+    pub cone_slack: usize,
+    /// At most this many cones (a face that needs more has a spacing
+    /// varying on the scale of the spacing itself, where a lattice is no
+    /// better).
+    pub max_cones: usize,
+    /// A hole stays Neumann (straight in the layout) while the first-order
+    /// |h| on it, before any cone, is at most this (case C's holes: 0.42;
+    /// the same plate with d = 0.02 + 0.01 x: 1.43 and 1.54).
+    pub hole_tol: f64,
+    /// Seeds closer than this many spacings to the boundary are dropped:
+    /// the boundary nodes stand there.
+    pub boundary_gap: f64,
+    /// Seeds closer than this many spacings to a kept seed are dropped.
+    pub seed_gap: f64,
+    /// Background meshes larger than this are not flattened, and the face
+    /// keeps its packed mesh: with a Jacobi-preconditioned conjugate
+    /// gradient per cone the flattening grows like n^1.5 (case B at a
+    /// quarter of its spacing, 95k unknowns: 27 s of cone placement against
+    /// 10 s of stage 2; at half its spacing, 24k: 1.8 s against 2 s). A
+    /// better preconditioner (incomplete Cholesky, multigrid on the bubble
+    /// hierarchy) would lift this.
+    pub max_background_nodes: usize,
+}
+
+impl LatticeParams {
+    /// The measured values (see each field).
+    pub const DEFAULT: LatticeParams = LatticeParams {
+        cone_tol: 0.2,
+        cone_exclusion: 3.0,
+        cone_slack: 2,
+        max_cones: 400,
+        hole_tol: 0.8,
+        boundary_gap: 0.4,
+        seed_gap: 0.6,
+        max_background_nodes: 120_000,
+    };
+}
+
+impl Default for LatticeParams {
+    fn default() -> Self {
+        LatticeParams::DEFAULT
+    }
+}
+
+/// The lattice's settings.
+const PRM: LatticeParams = LatticeParams::DEFAULT;
 /// Relative residual of the solves while placing cones: h is only compared
-/// with [`CONE_TOL`] there (Newton then solves to 1e-8).
+/// with `cone_tol` there (Newton then solves to 1e-8).
 const GREEDY_TOL: f64 = 1e-5;
-/// A hole stays Neumann (straight in the layout) while the first-order |h|
-/// on it, before any cone, is at most this (case C's holes: 0.42; the same
-/// plate with d = 0.02 + 0.01 x: 1.43 and 1.54).
-pub const HOLE_TOL: f64 = 0.8;
 /// Newton steps on the curvature at most (it converges quadratically).
 const NEWTON_STEPS: usize = 8;
-/// Seeds closer than this many spacings to the boundary are dropped: the
-/// boundary nodes stand there.
-pub const BOUNDARY_GAP: f64 = 0.4;
 /// Lattice points this far outside a laid-out triangle (in barycentric
 /// coordinates) still count for it: across the edges where the breadth-first
 /// layouts meet, neighbours' images overlap or leave slivers, and a point in
-/// a sliver would be lost (the duplicates are dropped by [`SEED_GAP`]).
+/// a sliver would be lost (the duplicates are dropped by `seed_gap`).
 const OVERLAP: f64 = 0.05;
-/// Seeds closer than this many spacings to a kept seed are dropped.
-pub const SEED_GAP: f64 = 0.6;
-/// Background meshes larger than this are not flattened, and the face keeps
-/// its packed mesh: with a Jacobi-preconditioned conjugate gradient per cone
-/// the flattening grows like n^1.5 (case B at a quarter of its spacing,
-/// 95k unknowns: 27 s of cone placement against 10 s of stage 2; at half
-/// its spacing, 24k: 1.8 s against 2 s). A better preconditioner
-/// (incomplete Cholesky, multigrid on the bubble hierarchy) would lift this.
-pub const MAX_BACKGROUND_NODES: usize = 120_000;
 
 /// A face's bubble mesh and spacing.
 pub struct Background<'a> {
@@ -128,7 +158,7 @@ pub struct Lattice {
 /// loop to hold the scale, too large, or a solve that does not converge).
 pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) -> Option<Lattice> {
     // the refined mesh has about four times the nodes: check before building it
-    if 4 * bg.uv.len() > MAX_BACKGROUND_NODES || bg.tris.is_empty() {
+    if 4 * bg.uv.len() > PRM.max_background_nodes || bg.tris.is_empty() {
         return None;
     }
     let mut mesh = refine(bg);
@@ -140,21 +170,60 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
     let u: Vec<f64> = dn.iter().map(|&x| -x.ln()).collect();
 
     let euclid = Metric::new(&mesh, &vec![0.0; n]);
+    let mut first = first_order(&mut mesh, &euclid, &u, bg.holes.len())?;
+    let (kappa, cones) = place_cones(&mesh, &mut first, &dn)?;
+    let mut phi = u.clone();
+    for (m, &i) in first.unk_nodes.iter().enumerate() {
+        phi[i] += first.h[m];
+    }
+    // the cones found to first order, the metric is made flat exactly
+    if !newton(&mesh, &first.unk, &first.unk_nodes, &kappa, &mut phi) {
+        return None;
+    }
+    let f = lay_out(&mesh, bg, &u, &phi)?;
+    let raw = lattice_points(&mesh, &f);
+    let seeds = clear_seeds(bg, d, &dn, raw);
+    Some(Lattice { seeds, cones })
+}
+
+/// The first-order solution before any cone: the unknowns (interior nodes
+/// and Neumann hole nodes), L restricted to them, the right-hand side and h.
+struct FirstOrder {
+    /// Index of each background node among the unknowns (`usize::MAX`:
+    /// Dirichlet).
+    unk: Vec<usize>,
+    unk_nodes: Vec<usize>,
+    rows: Vec<Vec<(usize, f64)>>,
+    diag: Vec<f64>,
+    /// −(L u)_U − K_E.
+    rhs0: Vec<f64>,
+    /// h at the unknowns; after [`place_cones`], with the cones.
+    h: Vec<f64>,
+}
+
+/// Step 2 and 7 of the module docs: h with no cone, a hole made Dirichlet
+/// (in `mesh.hole_of`) when it is not nearly a closed geodesic.
+fn first_order(
+    mesh: &mut Refined,
+    euclid: &Metric,
+    u: &[f64],
+    nholes: usize,
+) -> Option<FirstOrder> {
+    let n = mesh.uv.len();
     // A hole is Neumann (straight in the layout, lattice rows along it) when
     // the metric makes it close to a closed geodesic: the spacing growing
     // like the distance from the hole's centre (case C), where the first-
-    // order solution keeps |h| ≤ HOLE_TOL on it. Around any other hole
+    // order solution keeps |h| ≤ `hole_tol` on it. Around any other hole
     // (a hole in a nearly uniform spacing) straightening it would distort
     // the scale by e^|h|, far out of band, so it is Dirichlet like the
     // outer loop.
-    let nholes = bg.holes.len();
-    let (unk, unk_nodes, rows, diag, rhs0, mut h) = loop {
+    loop {
         // unknowns: interior nodes and Neumann hole nodes; the rest is Dirichlet
         let mut unk = vec![usize::MAX; n];
         let mut unk_nodes = Vec::new();
-        for i in 0..n {
+        for (i, x) in unk.iter_mut().enumerate() {
             if !mesh.boundary[i] || mesh.hole_of[i] != usize::MAX {
-                unk[i] = unk_nodes.len();
+                *x = unk_nodes.len();
                 unk_nodes.push(i);
             }
         }
@@ -186,26 +255,46 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
                 worst[mesh.hole_of[i]] = worst[mesh.hole_of[i]].max(h[m].abs());
             }
         }
-        let dirichlet: Vec<usize> = (0..nholes).filter(|&k| worst[k] > HOLE_TOL).collect();
+        let dirichlet: Vec<usize> = (0..nholes).filter(|&k| worst[k] > PRM.hole_tol).collect();
         if dirichlet.is_empty() {
-            break (unk, unk_nodes, rows, diag, rhs0, h);
+            return Some(FirstOrder {
+                unk,
+                unk_nodes,
+                rows,
+                diag,
+                rhs0,
+                h,
+            });
         }
         for x in mesh.hole_of.iter_mut() {
             if *x != usize::MAX && dirichlet.contains(x) {
                 *x = usize::MAX;
             }
         }
-    };
-    let nu = unk_nodes.len();
-    let sys = Spd {
-        rows: &rows,
-        diag: &diag,
-    };
+    }
+}
 
-    // cones, greedily
+/// Step 3 of the module docs: cones placed greedily at the largest |h|,
+/// re-solving for h (in `first.h`) after each. Returns κ at the unknowns
+/// and the cones placed (positive, negative).
+fn place_cones(
+    mesh: &Refined,
+    first: &mut FirstOrder,
+    dn: &[f64],
+) -> Option<(Vec<f64>, (usize, usize))> {
+    let FirstOrder {
+        unk_nodes,
+        rows,
+        diag,
+        rhs0,
+        h,
+        ..
+    } = first;
+    let nu = unk_nodes.len();
+    let sys = Spd { rows, diag };
     let mut kappa = vec![0.0; nu];
     let mut b = rhs0.clone();
-    // cones go more than CONE_EXCLUSION spacings from every cone (a cone's
+    // cones go more than `cone_exclusion` spacings from every cone (a cone's
     // own log singularity is the lattice's business) and not on holes
     let mut far: Vec<bool> = unk_nodes
         .iter()
@@ -214,7 +303,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
     // at most as many cones of a sign as the curvature of that sign asks
     // for (κ ≈ L u + K_E to first order), and a few: near a cone the
     // conformal factor grows like (1/6)·log(1/r), so on a fine background
-    // |h| passes CONE_TOL some spacings from any cone, and more cones would
+    // |h| passes `cone_tol` some spacings from any cone, and more cones would
     // only chase that in ± pairs, the dislocations this module avoids
     // (case B at a quarter of its spacing: 400 cones without the budget,
     // 10 + 2 with it)
@@ -232,8 +321,8 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         }
         let third = std::f64::consts::FRAC_PI_3;
         (
-            (p / third).ceil() as usize + CONE_SLACK,
-            (q / third).ceil() as usize + CONE_SLACK,
+            (p / third).ceil() as usize + PRM.cone_slack,
+            (q / third).ceil() as usize + PRM.cone_slack,
         )
     };
     let mut cones = (0usize, 0usize);
@@ -243,7 +332,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
             .filter(|&k| far[k] && if h[k] < 0.0 { pos_ok } else { neg_ok })
             .max_by(|&a, &c| h[a].abs().total_cmp(&h[c].abs()));
         let Some(k) = k else { break };
-        if h[k].abs() < CONE_TOL || cones.0 + cones.1 >= MAX_CONES {
+        if h[k].abs() < PRM.cone_tol || cones.0 + cones.1 >= PRM.max_cones {
             break;
         }
         let s = -h[k].signum();
@@ -263,7 +352,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         *budget -= 1;
         let pk = mesh.uv[unk_nodes[k]];
         for (m, &i) in unk_nodes.iter().enumerate() {
-            let r = CONE_EXCLUSION * dn[i].max(dn[unk_nodes[k]]);
+            let r = PRM.cone_exclusion * dn[i].max(dn[unk_nodes[k]]);
             let q = mesh.uv[i];
             if (q[0] - pk[0]).powi(2) + (q[1] - pk[1]).powi(2) <= r * r {
                 far[m] = false;
@@ -278,19 +367,19 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         for m in 0..nu {
             b[m] = rhs0[m] + kappa[m];
         }
-        if !sys.solve(&b, &mut h, GREEDY_TOL) {
+        if !sys.solve(&b, h, GREEDY_TOL) {
             return None;
         }
     }
-    let mut phi = u.clone();
-    for (m, &i) in unk_nodes.iter().enumerate() {
-        phi[i] += h[m];
-    }
-    // the cones found to first order, the metric is made flat exactly
-    if !newton(&mesh, &unk, &unk_nodes, &kappa, &mut phi) {
-        return None;
-    }
+    Some((kappa, cones))
+}
 
+/// Steps 4 and 5 of the module docs: each triangle laid out in the plane
+/// with the metric e^{2φ}|dx|², one layout per region (the Neumann hole
+/// nearest in triangle hops, or one region when there is none), each
+/// aligned to its hole. `None` when a Neumann hole has no region.
+fn lay_out(mesh: &Refined, bg: &Background<'_>, u: &[f64], phi: &[f64]) -> Option<Vec<[C64; 3]>> {
+    let nholes = bg.holes.len();
     // regions: each triangle belongs to the Neumann hole nearest in
     // triangle hops (one region when there is none)
     let ntri = mesh.tris.len();
@@ -353,13 +442,18 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         if root == usize::MAX {
             continue; // a Dirichlet hole: no region of its own
         }
-        layout(&mesh, root, |t| region[t] == r, &len, &mut f);
+        layout(mesh, root, |t| region[t] == r, &len, &mut f);
         if neumann.get(r) == Some(&true) {
-            align_to_hole(&mesh, r, bg.holes[r].len(), &region, &mut f);
+            align_to_hole(mesh, r, bg.holes[r].len(), &region, &mut f);
         }
     }
+    Some(f)
+}
 
-    // lattice points of every laid-out triangle, mapped back
+/// Step 6 of the module docs: the points of the unit hexagonal lattice in
+/// every laid-out triangle `f[t]`, mapped back to (u,v) by barycentric
+/// coordinates.
+fn lattice_points(mesh: &Refined, f: &[[C64; 3]]) -> Vec<[f64; 2]> {
     let sin60 = 3f64.sqrt() / 2.0;
     let w = C64::new(0.5, sin60);
     let mut raw: Vec<[f64; 2]> = Vec::new();
@@ -400,11 +494,21 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
             }
         }
     }
+    raw
+}
 
-    // keep seeds clear of the segments, the fixed nodes and each other
+/// The lattice points, in order, that keep clear of the segments
+/// (`boundary_gap`), the fixed nodes and each other (`seed_gap`), with
+/// their spacing.
+fn clear_seeds(
+    bg: &Background<'_>,
+    d: &mut dyn FnMut([f64; 2]) -> f64,
+    dn: &[f64],
+    raw: Vec<[f64; 2]>,
+) -> Vec<([f64; 2], f64)> {
     let dmin = dn.iter().cloned().fold(f64::INFINITY, f64::min);
     let seg_grid = SegmentGrid::new(bg.uv, bg.segments);
-    let mut pts = PointGrid::new(SEED_GAP * dmin);
+    let mut pts = PointGrid::new(PRM.seed_gap * dmin);
     let fixed_d: Vec<f64> = (0..bg.n_fixed).map(|i| d(bg.uv[i])).collect();
     for i in 0..bg.n_fixed {
         pts.insert(bg.uv[i]);
@@ -415,16 +519,16 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
         if !(dp.is_finite() && dp > 0.0) {
             continue;
         }
-        if seg_grid.near(bg.uv, p, BOUNDARY_GAP * dp) {
+        if seg_grid.near(bg.uv, p, PRM.boundary_gap * dp) {
             continue;
         }
         let mut crowded = false;
-        pts.query(p, SEED_GAP * dp, |k| {
+        pts.query(p, PRM.seed_gap * dp, |k| {
             // a fixed node counts with the smaller of the two spacings
             let r = if k < bg.n_fixed {
-                SEED_GAP * dp.min(fixed_d[k])
+                PRM.seed_gap * dp.min(fixed_d[k])
             } else {
-                SEED_GAP * dp
+                PRM.seed_gap * dp
             };
             let q = pts.at(k);
             if (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) < r * r {
@@ -436,7 +540,7 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
             seeds.push((p, dp));
         }
     }
-    Some(Lattice { seeds, cones })
+    seeds
 }
 
 /// The background: the bubble mesh refined 1-to-4, with triangle adjacency,
@@ -979,9 +1083,12 @@ impl PointGrid {
 mod tests {
     use super::*;
 
+    /// (u,v), triangles, fixed nodes, segments.
+    type SquareBackground = (Vec<[f64; 2]>, Vec<[usize; 3]>, usize, Vec<[usize; 2]>);
+
     /// The unit square as an m×m grid of right triangles; fixed nodes (the
     /// boundary, counter-clockwise) first, and the boundary segments.
-    fn square_background(m: usize) -> (Vec<[f64; 2]>, Vec<[usize; 3]>, usize, Vec<[usize; 2]>) {
+    fn square_background(m: usize) -> SquareBackground {
         let h = 1.0 / m as f64;
         let on_boundary = |i: usize, j: usize| i == 0 || j == 0 || i == m || j == m;
         let mut ring: Vec<(usize, usize)> = Vec::new();
@@ -1087,9 +1194,9 @@ mod tests {
         let n = m.uv.len();
         let mut unk = vec![usize::MAX; n];
         let mut unk_nodes = Vec::new();
-        for i in 0..n {
+        for (i, x) in unk.iter_mut().enumerate() {
             if !m.boundary[i] {
-                unk[i] = unk_nodes.len();
+                *x = unk_nodes.len();
                 unk_nodes.push(i);
             }
         }

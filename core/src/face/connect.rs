@@ -10,6 +10,8 @@
 //! some triangle or lies outside the kept region; every constraint segment is
 //! an edge of the triangulation; triangles are counter-clockwise in (u,v).
 
+use std::collections::{HashMap, HashSet};
+
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
 /// Why a triangulation could not be built.
@@ -241,12 +243,12 @@ pub fn triangulate_surface(
     let mut ext_uv: Vec<[f64; 2]> = Vec::new();
     let mut ext_of: Vec<usize> = Vec::new();
     let mut copies: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); n];
-    for i in 0..n {
+    for (i, copies_i) in copies.iter_mut().enumerate() {
         if pts.singular[i] {
             continue;
         }
         for s in shifts_of(pts.uv[i]) {
-            copies[i].push((ext_uv.len(), s));
+            copies_i.push((ext_uv.len(), s));
             ext_uv.push([pts.uv[i][0] + s[0], pts.uv[i][1] + s[1]]);
             ext_of.push(i);
         }
@@ -328,10 +330,56 @@ fn fill_caps(
     tris: &mut Vec<[usize; 3]>,
     boundary: &[[usize; 2]],
 ) -> Result<(), ConnectError> {
-    use std::collections::{HashMap, HashSet};
     let n = pts.uv.len();
     // orient the (u,v) triangles along the normal so hole sides are known
     orient_along_normal(pts, tris);
+    let hole = hole_edges(tris, boundary);
+    let mut used = vec![false; n];
+    for t in tris.iter() {
+        for &v in t {
+            used[v] = true;
+        }
+    }
+    let orphans: Vec<usize> = (0..n).filter(|&i| !used[i]).collect();
+    if hole.is_empty() {
+        return if orphans.is_empty() {
+            Ok(())
+        } else {
+            Err(ConnectError::Coarse(format!(
+                "{} points lost their triangles but no hole was found",
+                orphans.len()
+            )))
+        };
+    }
+    let comps = hole_components(&hole);
+    // orphans go to the component with the nearest vertex
+    let mut inner: Vec<Vec<usize>> = vec![Vec::new(); comps.len()];
+    for &o in &orphans {
+        let mut best = (f64::INFINITY, 0);
+        for (k, c) in comps.iter().enumerate() {
+            for &v in c {
+                let dd = (pts.pos[o] - pts.pos[v]).norm();
+                if dd < best.0 {
+                    best = (dd, k);
+                }
+            }
+        }
+        inner[best.1].push(o);
+    }
+    for (k, comp) in comps.iter().enumerate() {
+        let local: Vec<usize> = comp.iter().chain(inner[k].iter()).cloned().collect();
+        let cap = tangent_cap(pts, &local, &hole)?;
+        for t in cap {
+            tris.push([local[t[0]], local[t[1]], local[t[2]]]);
+        }
+    }
+    Ok(())
+}
+
+/// The half-edges of the holes of `tris`, directed with the hole on their
+/// left: edges used by one triangle that are not boundary segments, and
+/// boundary segments no triangle uses.
+fn hole_edges(tris: &[[usize; 3]], boundary: &[[usize; 2]]) -> Vec<[usize; 2]> {
     let bset: HashSet<(usize, usize)> = boundary
         .iter()
         .map(|s| (s[0].min(s[1]), s[0].max(s[1])))
@@ -394,23 +442,12 @@ fn fill_caps(
         }
         hole.extend(unused);
     }
-    let mut used = vec![false; n];
-    for t in tris.iter() {
-        for &v in t {
-            used[v] = true;
-        }
-    }
-    let orphans: Vec<usize> = (0..n).filter(|&i| !used[i]).collect();
-    if hole.is_empty() {
-        return if orphans.is_empty() {
-            Ok(())
-        } else {
-            Err(ConnectError::Coarse(format!(
-                "{} points lost their triangles but no hole was found",
-                orphans.len()
-            )))
-        };
-    }
+    hole
+}
+
+/// The vertices of each connected component of the hole edges, each sorted
+/// by vertex id; components in the order of their smallest vertex.
+fn hole_components(hole: &[[usize; 2]]) -> Vec<Vec<usize>> {
     // connected components of the hole edges (union-find)
     let mut parent: HashMap<usize, usize> = HashMap::new();
     fn find(p: &mut HashMap<usize, usize>, x: usize) -> usize {
@@ -424,7 +461,7 @@ fn fill_caps(
         p.insert(x, r);
         r
     }
-    for &[a, b] in &hole {
+    for &[a, b] in hole {
         parent.entry(a).or_insert(a);
         parent.entry(b).or_insert(b);
         let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
@@ -444,84 +481,75 @@ fn fill_caps(
         });
         comps[k].push(v);
     }
-    // orphans go to the component with the nearest vertex
-    let mut inner: Vec<Vec<usize>> = vec![Vec::new(); comps.len()];
-    for &o in &orphans {
-        let mut best = (f64::INFINITY, 0);
-        for (k, c) in comps.iter().enumerate() {
-            for &v in c {
-                let dd = (pts.pos[o] - pts.pos[v]).norm();
-                if dd < best.0 {
-                    best = (dd, k);
-                }
-            }
-        }
-        inner[best.1].push(o);
-    }
-    for (k, comp) in comps.iter().enumerate() {
-        let local: Vec<usize> = comp.iter().chain(inner[k].iter()).cloned().collect();
-        let index: HashMap<usize, usize> = local.iter().enumerate().map(|(i, &g)| (g, i)).collect();
-        let nrm = local
-            .iter()
-            .fold(crate::geom::V3::zeros(), |a, &i| a + pts.normal[i]);
-        let nrm = if nrm.norm() > 0.0 {
-            nrm.normalize()
-        } else {
-            crate::geom::V3::z()
-        };
-        let e1 = if nrm.x.abs() < 0.9 {
-            crate::geom::V3::x()
-        } else {
-            crate::geom::V3::y()
-        };
-        let e1 = (e1 - nrm * nrm.dot(&e1)).normalize();
-        let e2 = nrm.cross(&e1);
-        let o = pts.pos[local[0]];
-        let puv: Vec<[f64; 2]> = local
-            .iter()
-            .map(|&i| {
-                let d = pts.pos[i] - o;
-                [d.dot(&e1), d.dot(&e2)]
-            })
-            .collect();
-        let segs: Vec<[usize; 2]> = hole
-            .iter()
-            .filter(|s| index.contains_key(&s[0]) && index.contains_key(&s[1]))
-            .map(|s| [index[&s[0]], index[&s[1]]])
-            .collect();
-        let cap = triangulate(&puv, &segs, &segs, |_| false).map_err(|e| match e {
-            ConnectError::Crossing(..) | ConnectError::Duplicate(..) => ConnectError::Coarse(
-                format!("a hole around a pole or a tight bend folds in its tangent plane: {e}"),
-            ),
-            other => other,
-        })?;
-        // the cap must close the hole: every hole edge used by exactly one
-        // of its triangles (otherwise the face would come out with a hole,
-        // silently). An orphan the cap leaves out lies between a boundary
-        // segment and its curve, outside the chord polygon: the caller
-        // drops such bubbles.
-        let mut cap_uses: HashMap<(usize, usize), u32> = HashMap::new();
-        for t in &cap {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *cap_uses.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
-        }
-        if let Some(s) = segs
-            .iter()
-            .find(|s| cap_uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
-        {
-            let p = pts.pos[local[s[0]]];
-            return Err(ConnectError::Coarse(format!(
-                "a hole around a pole or a tight bend near ({}, {}, {}) is not closed by its tangent-plane fill",
-                p.x, p.y, p.z
-            )));
-        }
-        for t in cap {
-            tris.push([local[t[0]], local[t[1]], local[t[2]]]);
+    comps
+}
+
+/// Triangles filling a hole in its tangent plane: `local` are its vertices
+/// (the hole's and the orphans'), the result's indices are into `local`.
+/// An error when the fill folds or does not close the hole.
+fn tangent_cap(
+    pts: &SurfacePoints<'_>,
+    local: &[usize],
+    hole: &[[usize; 2]],
+) -> Result<Vec<[usize; 3]>, ConnectError> {
+    let index: HashMap<usize, usize> = local.iter().enumerate().map(|(i, &g)| (g, i)).collect();
+    let nrm = local
+        .iter()
+        .fold(crate::geom::V3::zeros(), |a, &i| a + pts.normal[i]);
+    let nrm = if nrm.norm() > 0.0 {
+        nrm.normalize()
+    } else {
+        crate::geom::V3::z()
+    };
+    let e1 = if nrm.x.abs() < 0.9 {
+        crate::geom::V3::x()
+    } else {
+        crate::geom::V3::y()
+    };
+    let e1 = (e1 - nrm * nrm.dot(&e1)).normalize();
+    let e2 = nrm.cross(&e1);
+    let o = pts.pos[local[0]];
+    let puv: Vec<[f64; 2]> = local
+        .iter()
+        .map(|&i| {
+            let d = pts.pos[i] - o;
+            [d.dot(&e1), d.dot(&e2)]
+        })
+        .collect();
+    let segs: Vec<[usize; 2]> = hole
+        .iter()
+        .filter(|s| index.contains_key(&s[0]) && index.contains_key(&s[1]))
+        .map(|s| [index[&s[0]], index[&s[1]]])
+        .collect();
+    let cap = triangulate(&puv, &segs, &segs, |_| false).map_err(|e| match e {
+        ConnectError::Crossing(..) | ConnectError::Duplicate(..) => ConnectError::Coarse(format!(
+            "a hole around a pole or a tight bend folds in its tangent plane: {e}"
+        )),
+        other => other,
+    })?;
+    // the cap must close the hole: every hole edge used by exactly one
+    // of its triangles (otherwise the face would come out with a hole,
+    // silently). An orphan the cap leaves out lies between a boundary
+    // segment and its curve, outside the chord polygon: the caller
+    // drops such bubbles.
+    let mut cap_uses: HashMap<(usize, usize), u32> = HashMap::new();
+    for t in &cap {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *cap_uses.entry((a.min(b), a.max(b))).or_default() += 1;
         }
     }
-    Ok(())
+    if let Some(s) = segs
+        .iter()
+        .find(|s| cap_uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
+    {
+        let p = pts.pos[local[s[0]]];
+        return Err(ConnectError::Coarse(format!(
+            "a hole around a pole or a tight bend near ({}, {}, {}) is not closed by its tangent-plane fill",
+            p.x, p.y, p.z
+        )));
+    }
+    Ok(cap)
 }
 
 /// Signed area of a triangle of `uv` (positive when counter-clockwise).

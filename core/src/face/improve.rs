@@ -12,7 +12,7 @@
 //! - **edge relaxation**: the linear inter-bubble force of eq. 4.2.1 acting
 //!   along mesh edges only, as a damped Jacobi step Δx = ω f / k with
 //!   k = (deg/2)·k0; only bubbles within two rings of a triangle below
-//!   [`ACTIVE_Q`] move (so a uniform lattice costs nothing), and a move that
+//!   `active_q` move (so a uniform lattice costs nothing), and a move that
 //!   would invert an incident triangle in (u,v) is halved, then dropped;
 //! - **Delaunay flips** (Lawson): an edge whose opposite vertex lies inside
 //!   the circumcircle in (u,v) is flipped (exact `robust::incircle`), never
@@ -20,12 +20,12 @@
 //!   Delaunay triangulation of the moved bubbles without a global rebuild.
 //!
 //! - **lifting the worst**: the few bubbles at corners of triangles still
-//!   below [`LIFT_Q`] are moved (pattern search) to maximise the smallest
+//!   below `lift_q` are moved (pattern search) to maximise the smallest
 //!   radius ratio around them, followed by Delaunay flips again;
 //! - **lifting the mean**: the bubbles at corners of triangles below
-//!   [`MEAN_Q`] are moved the same way to maximise the *sum* of the radius
+//!   `mean_q` are moved the same way to maximise the *sum* of the radius
 //!   ratios around them, never letting the smallest drop below
-//!   min(its value, [`LIFT_Q`]); then flips. Around the five/seven pairs a
+//!   min(its value, `lift_q`); then flips. Around the five/seven pairs a
 //!   graded packing needs, this spreads the distortion over more triangles
 //!   (case B: mean 0.982 -> 0.986).
 //!
@@ -45,8 +45,52 @@ use crate::bubbles::dynamics::K0;
 use crate::bubbles::system::System;
 use crate::error::MeshError;
 
-/// Damping of the Jacobi relaxation step.
-const OMEGA: f64 = 0.6;
+/// The 2D improvement's tuning.
+#[derive(Clone, Copy, Debug)]
+pub struct ImproveParams {
+    /// Damping of the Jacobi relaxation step.
+    pub omega: f64,
+    /// Triangles below this radius ratio make their bubbles (and two rings
+    /// around them) move in the edge relaxation.
+    pub active_q: f64,
+    /// Triangles below this radius ratio have their free corners moved to
+    /// raise the worst incident triangle (the worst lift).
+    pub lift_q: f64,
+    /// Triangles below this radius ratio have their free corners moved to
+    /// raise the sum of the radius ratios around them (the mean lift).
+    pub mean_q: f64,
+    /// [`lift_mean`] keeps edge lengths L/d inside [band_lo, band_hi] (well
+    /// inside the [1/√2, √2] a mesher is judged by) with a penalty of
+    /// band_weight·(log of the excess)² per edge (research: F in
+    /// `bench/research/defects_2d/README.md`).
+    pub band_lo: f64,
+    /// See `band_lo`.
+    pub band_hi: f64,
+    /// See `band_lo`.
+    pub band_weight: f64,
+}
+
+impl ImproveParams {
+    /// The values in use.
+    pub const DEFAULT: ImproveParams = ImproveParams {
+        omega: 0.6,
+        active_q: 0.95,
+        lift_q: 0.9,
+        mean_q: 0.98,
+        band_lo: 0.76,
+        band_hi: 1.32,
+        band_weight: 10.0,
+    };
+}
+
+impl Default for ImproveParams {
+    fn default() -> Self {
+        ImproveParams::DEFAULT
+    }
+}
+
+/// The improvement's settings.
+const PRM: ImproveParams = ImproveParams::DEFAULT;
 
 /// Radius ratio 2 r_in / r_circ of a triangle in model space.
 pub fn radius_ratio(a: &P3, b: &P3, c: &P3) -> f64 {
@@ -66,10 +110,6 @@ fn orient_uv(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     )
 }
 
-/// Triangles below this radius ratio make their bubbles (and two rings
-/// around them) move in the edge relaxation.
-pub const ACTIVE_Q: f64 = 0.95;
-
 /// Improves `tris` (counter-clockwise, indices into `sys`) in place.
 /// `constraints` are the undirected edges that must stay.
 pub fn improve<C: Carrier>(
@@ -85,7 +125,7 @@ pub fn improve<C: Carrier>(
             break;
         }
     }
-    for (lift, below) in [(Lift::Worst, LIFT_Q), (Lift::Mean, MEAN_Q)] {
+    for (lift, below) in [(Lift::Worst, PRM.lift_q), (Lift::Mean, PRM.mean_q)] {
         for _ in 0..rounds {
             let moved = lift_bubbles(sys, tris, lift, below, 0.0)?;
             if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
@@ -116,7 +156,7 @@ pub fn lift_mean<C: Carrier>(
 ) -> Result<(), MeshError> {
     let fixed = undirected(constraints);
     for _ in 0..rounds {
-        let moved = lift_bubbles(sys, tris, Lift::Mean, below, BAND_WEIGHT)?;
+        let moved = lift_bubbles(sys, tris, Lift::Mean, below, PRM.band_weight)?;
         if moved.is_empty() {
             break;
         }
@@ -192,7 +232,9 @@ fn delaunay_flips<C: Carrier>(
             if fixed.contains(&(a.min(b), a.max(b))) {
                 continue;
             }
-            if not_delaunay(sys, a, b, c, d) && try_flip(sys, tris, &mut inc, ti, tj, a, b, c, d) {
+            if not_delaunay(sys, a, b, c, d)
+                && try_flip(sys, tris, &mut inc, (ti, tj), [a, b, c, d])
+            {
                 flips += 1;
                 stack.push(ti);
                 stack.push(tj);
@@ -269,18 +311,14 @@ fn pair(
 }
 
 /// Replaces (a,b,c),(b,a,d) by (c,a,d),(d,b,c) if the quadrilateral
-/// c,a,d,b is strictly convex in (u,v). Returns whether it flipped.
-#[allow(clippy::too_many_arguments)]
+/// c,a,d,b is strictly convex in (u,v) (triangles `ti`, `tj`). Returns
+/// whether it flipped.
 fn try_flip<C: Carrier>(
     sys: &System<'_, C>,
     tris: &mut [[usize; 3]],
     inc: &mut Incidence,
-    ti: usize,
-    tj: usize,
-    a: usize,
-    b: usize,
-    c: usize,
-    d: usize,
+    (ti, tj): (usize, usize),
+    [a, b, c, d]: [usize; 4],
 ) -> bool {
     let p = &sys.params;
     let ok = if sys.carrier.planar() {
@@ -302,35 +340,19 @@ fn try_flip<C: Carrier>(
     true
 }
 
-/// Triangles below this radius ratio have their free corners moved to
-/// raise the worst incident triangle ([`Lift::Worst`]).
-pub const LIFT_Q: f64 = 0.9;
-
-/// Triangles below this radius ratio have their free corners moved to
-/// raise the sum of the radius ratios around them ([`Lift::Mean`]).
-pub const MEAN_Q: f64 = 0.98;
-
-/// [`lift_mean`] keeps edge lengths L/d inside [BAND_LO, BAND_HI] (well
-/// inside the [1/√2, √2] a mesher is judged by) with a penalty of
-/// BAND_WEIGHT·(log of the excess)² per edge (research: F in
-/// `bench/research/defects_2d/README.md`).
-const BAND_LO: f64 = 0.76;
-const BAND_HI: f64 = 1.32;
-const BAND_WEIGHT: f64 = 10.0;
-
 /// What [`lift_bubbles`] maximises.
 #[derive(Clone, Copy, PartialEq)]
 enum Lift {
     /// The smallest radius ratio of the bubble's triangles (bubbles of
-    /// triangles below [`LIFT_Q`]).
+    /// triangles below `lift_q`).
     Worst,
-    /// Their sum, the smallest kept at least min(its value, [`LIFT_Q`])
-    /// (bubbles of triangles below [`MEAN_Q`]).
+    /// Their sum, the smallest kept at least min(its value, `lift_q`)
+    /// (bubbles of triangles below `mean_q`).
     Mean,
 }
 
-/// For each free bubble at a corner of a triangle below [`LIFT_Q`] (or
-/// [`MEAN_Q`]), a pattern search in its tangent plane (8 directions, step
+/// For each free bubble at a corner of a triangle below `lift_q` (or
+/// `mean_q`), a pattern search in its tangent plane (8 directions, step
 /// halved 10 times from 0.15 d) for the position that maximises the
 /// [`Lift`] objective of its triangles. Only bubbles around poor triangles
 /// move, so the edge lengths elsewhere keep what the packing gave them.
@@ -379,7 +401,8 @@ fn lift_bubbles<C: Carrier>(
                     for &j in &t {
                         if j != i {
                             let r = ((sys.pos[j] - p).norm() / (0.5 * (sys.d[i] + sys.d[j]))).ln();
-                            let out = (r - BAND_HI.ln()).max(0.0) + (BAND_LO.ln() - r).max(0.0);
+                            let out =
+                                (r - PRM.band_hi.ln()).max(0.0) + (PRM.band_lo.ln() - r).max(0.0);
                             sum -= 0.5 * band * out * out;
                         }
                     }
@@ -399,7 +422,7 @@ fn lift_bubbles<C: Carrier>(
                     radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]])
                 })
                 .fold(f64::INFINITY, f64::min);
-            floor = w.min(LIFT_Q);
+            floor = w.min(PRM.lift_q);
         }
         let mut best = worst_at(sys, &sys.pos[i], sys.params[i], floor);
         let start = best;
@@ -465,7 +488,7 @@ fn relax_edges<C: Carrier>(
     let mut active = vec![false; n];
     let mut front: Vec<usize> = Vec::new();
     for t in tris {
-        if radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]) < ACTIVE_Q {
+        if radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]) < PRM.active_q {
             for &v in t {
                 if !active[v] {
                     active[v] = true;
@@ -503,7 +526,7 @@ fn relax_edges<C: Carrier>(
                 }
             }
             let k = 0.5 * nbrs[m].len() as f64 * K0;
-            let mut step = f * (OMEGA / k);
+            let mut step = f * (PRM.omega / k);
             for _attempt in 0..3 {
                 let Some((p, uv)) = sys.carrier.advance(&sys.pos[i], sys.params[i], &step) else {
                     step *= 0.5;

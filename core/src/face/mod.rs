@@ -2,18 +2,34 @@
 //! quadtree, stage 2 by damped dynamics with population control, bubbles
 //! held on the face through their (u,v) (§4.5); then constrained Delaunay
 //! connection in (u,v) and the 2D improvement.
+//!
+//! [`mesh_face`] runs the phases in order; each is a method of one face's
+//! context (`FaceJob`):
+//! - the boundary bubbles: the nodes of the face's edges and embedded
+//!   entities, fixed (§3.2.3), with their (u,v), and the face's [`region`];
+//! - stage 1: [`placement`] (the oblique quadtree, §4.1.2), on curved faces
+//!   after a crystal from [`growth`];
+//! - stage 2: [`crate::bubbles::relax`] with the face's [`carrier`];
+//! - connection: [`connect`] (constrained Delaunay in (u,v), caps in the
+//!   tangent plane near singular points), then [`improve`];
+//! - on a graded planar face, a second start from the lattice conformal to
+//!   the spacing ([`conformal`]), kept when it is better;
+//! - the new nodes and triangles into the mesh.
+//!
+//! [`orient`] turns the faces of a closed shell outward afterwards.
 
-pub mod conformal;
-pub mod connect;
-pub mod growth;
-pub mod improve;
-pub mod orient;
-pub mod placement;
-pub mod region;
+pub(crate) mod carrier;
+pub(crate) mod conformal;
+pub(crate) mod connect;
+pub(crate) mod growth;
+pub(crate) mod improve;
+pub(crate) mod orient;
+pub(crate) mod placement;
+pub(crate) mod region;
 
 use std::time::Instant;
 
-use crate::bubbles::constraint::{self, Carrier, OnFace};
+use crate::bubbles::constraint::{self, Carrier};
 use crate::bubbles::grid;
 use crate::bubbles::system::{self, RelaxStats, System};
 use crate::error::{check_spacing, MeshError};
@@ -23,27 +39,50 @@ use crate::model::{EntityRef, Model};
 use crate::options::{relax_progress, Options, Timings};
 use crate::spacing::{Spacing, SpacingQuery};
 
+use carrier::OnFace;
 use region::Region;
 
-/// Seed a boundary layer before the quadtree lattice (measured: no gain on
-/// cases A–C with the current relaxation, so off; kept for surfaces).
-const APEX_LAYER: bool = false;
+/// The face pipeline's tuning, each value with how it was measured.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FaceParams {
+    /// Seed a boundary layer before the quadtree lattice (measured: no gain
+    /// on cases A–C with the current relaxation, so off; kept for surfaces).
+    pub apex_layer: bool,
+    /// Bubbles closer than this many spacings to a singular point of the
+    /// parametrization are connected in their tangent plane (a cap), not in
+    /// (u,v).
+    pub cap_radius: f64,
+    /// Rounds of edge relaxation and Delaunay flips after connection
+    /// ([`improve`]).
+    pub improve_rounds: usize,
+    /// After a conformal-lattice start ([`conformal`]), the mean lift runs
+    /// over the bubbles of every triangle below this radius ratio, for at
+    /// most `lattice_mean_rounds` rounds (cases B and C: 0.99 and 6 rounds
+    /// gave a mean 0.001 lower, 0.9999 and 20 rounds the same as this).
+    pub lattice_mean_q: f64,
+    /// See `lattice_mean_q`.
+    pub lattice_mean_rounds: usize,
+}
 
-/// Bubbles closer than this many spacings to a singular point of the
-/// parametrization are connected in their tangent plane (a cap), not in (u,v).
-const CAP_RADIUS: f64 = 5.0;
+impl FaceParams {
+    /// The values in use.
+    pub const DEFAULT: FaceParams = FaceParams {
+        apex_layer: false,
+        cap_radius: 5.0,
+        improve_rounds: 6,
+        lattice_mean_q: 0.999,
+        lattice_mean_rounds: 10,
+    };
+}
 
-/// Rounds of edge relaxation and Delaunay flips after connection
-/// ([`improve`]).
-const IMPROVE_ROUNDS: usize = 6;
+impl Default for FaceParams {
+    fn default() -> Self {
+        FaceParams::DEFAULT
+    }
+}
 
-/// After a conformal-lattice start (`conformal`), the mean lift runs over
-/// the bubbles of every triangle below this radius ratio, for at most
-/// [`LATTICE_MEAN_ROUNDS`] rounds (cases B and C: 0.99 and 6 rounds gave a
-/// mean 0.001 lower, 0.9999 and 20 rounds the same as this).
-const LATTICE_MEAN_Q: f64 = 0.999;
-
-const LATTICE_MEAN_ROUNDS: usize = 10;
+/// The face pipeline's settings.
+const PRM: FaceParams = FaceParams::DEFAULT;
 
 /// What happened on one face.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -93,53 +132,253 @@ fn parameter_scale(surface: &dyn crate::geom::Surface, uv: &[[f64; 2]]) -> [f64;
     [su[su.len() / 2], sv[sv.len() / 2]]
 }
 
-/// Meshes one face: stage 1, stage 2, connection.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn mesh_face(
-    model: &Model,
+/// What every face of a model is meshed with: the model, the spacing, the
+/// options and the mesh of the edges and vertices so far.
+pub(crate) struct FaceInputs<'a> {
+    pub model: &'a Model,
+    pub spacing: &'a dyn Spacing,
+    pub opts: &'a Options,
+    /// The node ids along each edge, from its start to its end.
+    pub edge_nodes: &'a [Vec<u32>],
+    /// d at each node of the mesh so far.
+    pub node_d: &'a [f64],
+}
+
+/// One face being meshed: the inputs and what is known about the face
+/// before its bubbles are placed.
+struct FaceJob<'a> {
+    inputs: &'a FaceInputs<'a>,
     fi: usize,
-    spacing: &dyn Spacing,
-    opts: &Options,
-    edge_nodes: &[Vec<u32>],
+    fe: EntityRef,
+    face: &'a crate::model::Face,
+    surface: &'a dyn crate::geom::Surface,
+    /// Whether stage 1 may start from a grown crystal (see [`growth`]).
+    grow: bool,
+    /// Whether the face bounds a volume that is meshed next.
+    bounds_volume: bool,
+}
+
+/// The fixed bubbles of a face (its boundary and embedded nodes, each once,
+/// with their (u,v)) and the constraint segments between them.
+struct Boundary {
+    /// Local index of each global node id among the fixed bubbles.
+    local_of: std::collections::HashMap<u32, usize>,
+    ids: Vec<u32>,
+    uv: Vec<[f64; 2]>,
+    /// The last (u,v) found, where the next inverse mapping starts.
+    hint: Option<[f64; 2]>,
+    /// Segments the mesh must contain (loops and embedded edges).
+    segments: Vec<[usize; 2]>,
+    /// The loops' segments directed with the face on their left.
+    directed: Vec<[usize; 2]>,
+    /// Each loop's fixed bubbles in order.
+    loop_locals: Vec<Vec<usize>>,
+}
+
+/// Meshes one face (thesis §4.1–4.7) as a sequence of phases: the boundary
+/// bubbles and the face's (u,v) region, stage 1 (the oblique quadtree, on
+/// curved faces a grown crystal), stage 2 (relaxation), connection (a
+/// constrained Delaunay triangulation), the 2D improvement, on a graded
+/// planar face the conformal-lattice restart, and the new nodes and
+/// triangles into `mesh`. `grow` allows stage 1's grown start.
+pub(crate) fn mesh_face(
+    inputs: &FaceInputs<'_>,
+    fi: usize,
     mesh: &mut Mesh,
-    node_d: &[f64],
     timings: &mut Timings,
     grow: bool,
 ) -> Result<FaceReport, MeshError> {
-    let face = &model.faces[fi];
-    let fe = EntityRef::new(2, fi as u32);
-    let surface = face.surface.as_ref();
-    if face.loops.is_empty() && surface.periods().iter().all(|p| p.is_none()) {
+    let job = FaceJob::new(inputs, fi, grow)?;
+    let t1 = Instant::now();
+    let mut boundary = job.boundary_bubbles(mesh)?;
+    let region = job.region(&mut boundary)?;
+    let (lo, hi) = region.bbox();
+    let carrier = OnFace::new(job.surface, region, job.fe);
+    let mut sys = job.stage1(carrier, &boundary, mesh)?;
+    let mut fr = FaceReport {
+        face: fi as u32,
+        name: job.face.name.clone(),
+        boundary_bubbles: sys.n_fixed,
+        stage1_bubbles: sys.n() - sys.n_fixed,
+        ..Default::default()
+    };
+    timings.stage1_s += t1.elapsed().as_secs_f64();
+
+    if !inputs.opts.fast {
+        let t2 = Instant::now();
+        fr.relax = Some(job.stage2(&mut sys)?);
+        timings.stage2_s += t2.elapsed().as_secs_f64();
+    }
+    fr.bubbles = sys.n() - sys.n_fixed;
+
+    let t3 = Instant::now();
+    let mut tris = job.connect(&sys, &boundary)?;
+    if !inputs.opts.fast && PRM.improve_rounds > 0 {
+        improve::improve(&mut sys, &mut tris, &boundary.segments, PRM.improve_rounds)?;
+    }
+    let t_lattice = Instant::now();
+    if job.wants_conformal_lattice(lo, hi) {
+        if let Some((cones, relax)) =
+            conformal_restart(&mut sys, &mut tris, &boundary, job.fe, &inputs.opts.relax)?
+        {
+            fr.lattice_cones = Some(cones);
+            fr.relax = Some(relax);
+        }
+    }
+    let lattice_s = t_lattice.elapsed().as_secs_f64();
+    timings.lattice_s += lattice_s;
+    fr.bubbles = job.emit(&sys, &tris, mesh);
+    fr.triangles = tris.len();
+    if tris.is_empty() {
         return Err(MeshError::Invalid(
-            "the face has no boundary loop and its surface is not closed (not periodic)".into(),
+            "the face produced no triangles (is its parameter region empty, or the spacing larger than the face?)"
+                .into(),
         ));
     }
-    let t1 = Instant::now();
+    timings.connect_s += t3.elapsed().as_secs_f64() - lattice_s;
+    Ok(fr)
+}
 
-    // fixed bubbles: boundary and embedded nodes, each once, with (u,v)
-    let mut local_of: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
-    let mut fixed_ids: Vec<u32> = Vec::new();
-    let mut fixed_uv: Vec<[f64; 2]> = Vec::new();
-    let mut hint: Option<[f64; 2]> = None;
-    // (u,v) of a boundary node: from the edge's pcurve on this face when the
-    // model has one (exact), else by inverse mapping from the previous node
-    let pcurve_uv = |edge: u32, id: u32, at_end: Option<bool>| -> Option<[f64; 2]> {
-        let pc = model.pcurves.get(&(fi as u32, edge))?;
-        let e = &model.edges[edge as usize];
-        let t = match at_end {
-            Some(false) => e.t0,
-            Some(true) => e.t1,
-            None => mesh.nodes[id as usize].params[0],
+impl<'a> FaceJob<'a> {
+    fn new(inputs: &'a FaceInputs<'a>, fi: usize, grow: bool) -> Result<Self, MeshError> {
+        let model = inputs.model;
+        let face = &model.faces[fi];
+        let surface = face.surface.as_ref();
+        if face.loops.is_empty() && surface.periods().iter().all(|p| p.is_none()) {
+            return Err(MeshError::Invalid(
+                "the face has no boundary loop and its surface is not closed (not periodic)".into(),
+            ));
+        }
+        let bounds_volume = inputs.opts.dim.unwrap_or(model.dim()) >= 3
+            && model.volumes.iter().any(|v| v.faces.contains(&(fi as u32)));
+        Ok(FaceJob {
+            inputs,
+            fi,
+            fe: EntityRef::new(2, fi as u32),
+            face,
+            surface,
+            grow,
+            bounds_volume,
+        })
+    }
+
+    /// The face's fixed bubbles: the nodes of its loops' edges, of its
+    /// embedded edges and its embedded vertices, each once, with (u,v), and
+    /// the constraint segments between them (the thesis's order of
+    /// dimensions, §3.2.3: the boundary is meshed and fixed first).
+    fn boundary_bubbles(&self, mesh: &Mesh) -> Result<Boundary, MeshError> {
+        let model = self.inputs.model;
+        let fi = self.fi;
+        let mut b = Boundary {
+            local_of: std::collections::HashMap::new(),
+            ids: Vec::new(),
+            uv: Vec::new(),
+            hint: None,
+            segments: Vec::new(),
+            directed: Vec::new(),
+            loop_locals: Vec::new(),
         };
-        let q = pc.point(t);
-        Some([q.x, q.y])
-    };
-    let mut add_fixed = |id: u32,
-                         known: Option<[f64; 2]>,
-                         hint: &mut Option<[f64; 2]>|
-     -> Result<usize, MeshError> {
-        if let Some(&l) = local_of.get(&id) {
-            *hint = Some(fixed_uv[l]);
+        // (u,v) of a boundary node: from the edge's pcurve on this face when
+        // the model has one (exact), else by inverse mapping from the
+        // previous node
+        let pcurve_uv = |edge: u32, id: u32, at_end: Option<bool>| -> Option<[f64; 2]> {
+            let pc = model.pcurves.get(&(fi as u32, edge))?;
+            let e = &model.edges[edge as usize];
+            let t = match at_end {
+                Some(false) => e.t0,
+                Some(true) => e.t1,
+                None => mesh.nodes[id as usize].params[0],
+            };
+            let q = pc.point(t);
+            Some([q.x, q.y])
+        };
+        for (li, lp) in self.face.loops.iter().enumerate() {
+            // node ids with their (u,v) when a pcurve gives it
+            let mut ids: Vec<(u32, Option<[f64; 2]>)> = Vec::new();
+            for u in &lp.edges {
+                let c = self.chain(u)?;
+                let m = c.len();
+                let with_uv: Vec<(u32, Option<[f64; 2]>)> = c
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &id)| {
+                        let at_end = if k == 0 {
+                            Some(!u.forward)
+                        } else if k + 1 == m {
+                            Some(u.forward)
+                        } else {
+                            None
+                        };
+                        (id, pcurve_uv(u.edge, id, at_end))
+                    })
+                    .collect();
+                if let Some(&(last, _)) = ids.last() {
+                    if last != c[0] {
+                        return Err(MeshError::Invalid(format!(
+                            "loop {li} is not connected at edge {} (its first vertex is not the previous edge's last)",
+                            u.edge
+                        )));
+                    }
+                    ids.pop();
+                }
+                ids.extend(with_uv);
+            }
+            if ids.len() < 3 || ids.first().map(|x| x.0) != ids.last().map(|x| x.0) {
+                return Err(MeshError::Invalid(format!("loop {li} is not closed")));
+            }
+            ids.pop();
+            let locals: Vec<usize> = ids
+                .iter()
+                .map(|&(id, uv)| self.add_fixed(&mut b, mesh, id, uv))
+                .collect::<Result<_, _>>()?;
+            for k in 0..locals.len() {
+                b.segments.push([locals[k], locals[(k + 1) % locals.len()]]);
+            }
+            b.loop_locals.push(locals);
+        }
+        for &ee in &self.face.embedded_edges {
+            let c = self.chain(&crate::model::EdgeUse {
+                edge: ee,
+                forward: true,
+            })?;
+            let locals: Vec<usize> = c
+                .iter()
+                .map(|&id| self.add_fixed(&mut b, mesh, id, None))
+                .collect::<Result<_, _>>()?;
+            for w in locals.windows(2) {
+                b.segments.push([w[0], w[1]]);
+            }
+        }
+        for &v in &self.face.embedded_vertices {
+            self.add_fixed(&mut b, mesh, v, None)?;
+        }
+        Ok(b)
+    }
+
+    /// The node ids along an edge as the loop uses it.
+    fn chain(&self, u: &crate::model::EdgeUse) -> Result<Vec<u32>, MeshError> {
+        let ids = self.inputs.edge_nodes.get(u.edge as usize).ok_or_else(|| {
+            MeshError::Invalid(format!("a loop uses edge {} which does not exist", u.edge))
+        })?;
+        Ok(if u.forward {
+            ids.clone()
+        } else {
+            ids.iter().rev().cloned().collect()
+        })
+    }
+
+    /// Adds node `id` as a fixed bubble (once) and returns its local index.
+    /// Its (u,v) is `known` (from a pcurve) or found by inverse mapping.
+    fn add_fixed(
+        &self,
+        b: &mut Boundary,
+        mesh: &Mesh,
+        id: u32,
+        known: Option<[f64; 2]>,
+    ) -> Result<usize, MeshError> {
+        let surface = self.surface;
+        if let Some(&l) = b.local_of.get(&id) {
+            b.hint = Some(b.uv[l]);
             return Ok(l);
         }
         let p = mesh.nodes[id as usize].pos;
@@ -154,340 +393,204 @@ pub(crate) fn mesh_face(
                 }
                 uv
             }
-            None => surface.inverse(&p, *hint).ok_or_else(|| {
+            None => surface.inverse(&p, b.hint).ok_or_else(|| {
                 MeshError::Invalid(format!(
                     "boundary point ({}, {}, {}) cannot be mapped to the surface's (u,v)",
                     p.x, p.y, p.z
                 ))
             })?,
         };
-        *hint = Some(uv);
-        let l = fixed_ids.len();
-        local_of.insert(id, l);
-        fixed_ids.push(id);
-        fixed_uv.push(uv);
+        b.hint = Some(uv);
+        let l = b.ids.len();
+        b.local_of.insert(id, l);
+        b.ids.push(id);
+        b.uv.push(uv);
         Ok(l)
-    };
-    let chain = |u: &crate::model::EdgeUse| -> Result<Vec<u32>, MeshError> {
-        let ids = edge_nodes.get(u.edge as usize).ok_or_else(|| {
-            MeshError::Invalid(format!("a loop uses edge {} which does not exist", u.edge))
-        })?;
-        Ok(if u.forward {
-            ids.clone()
-        } else {
-            ids.iter().rev().cloned().collect()
-        })
-    };
-    let mut segments: Vec<[usize; 2]> = Vec::new();
-    let mut boundary: Vec<[usize; 2]> = Vec::new();
-    let mut loop_locals: Vec<Vec<usize>> = Vec::new();
-    for (li, lp) in face.loops.iter().enumerate() {
-        // node ids with their (u,v) when a pcurve gives it
-        let mut ids: Vec<(u32, Option<[f64; 2]>)> = Vec::new();
-        for u in &lp.edges {
-            let c = chain(u)?;
-            let m = c.len();
-            let with_uv: Vec<(u32, Option<[f64; 2]>)> = c
-                .iter()
-                .enumerate()
-                .map(|(k, &id)| {
-                    let at_end = if k == 0 {
-                        Some(!u.forward)
-                    } else if k + 1 == m {
-                        Some(u.forward)
-                    } else {
-                        None
-                    };
-                    (id, pcurve_uv(u.edge, id, at_end))
-                })
-                .collect();
-            if let Some(&(last, _)) = ids.last() {
-                if last != c[0] {
-                    return Err(MeshError::Invalid(format!(
-                        "loop {li} is not connected at edge {} (its first vertex is not the previous edge's last)",
-                        u.edge
-                    )));
-                }
-                ids.pop();
-            }
-            ids.extend(with_uv);
-        }
-        if ids.len() < 3 || ids.first().map(|x| x.0) != ids.last().map(|x| x.0) {
-            return Err(MeshError::Invalid(format!("loop {li} is not closed")));
-        }
-        ids.pop();
-        let locals: Vec<usize> = ids
-            .iter()
-            .map(|&(id, uv)| add_fixed(id, uv, &mut hint))
-            .collect::<Result<_, _>>()?;
-        for k in 0..locals.len() {
-            segments.push([locals[k], locals[(k + 1) % locals.len()]]);
-        }
-        loop_locals.push(locals);
     }
-    for &ee in &face.embedded_edges {
-        let c = chain(&crate::model::EdgeUse {
-            edge: ee,
-            forward: true,
-        })?;
-        let locals: Vec<usize> = c
-            .iter()
-            .map(|&id| add_fixed(id, None, &mut hint))
-            .collect::<Result<_, _>>()?;
-        for w in locals.windows(2) {
-            segments.push([w[0], w[1]]);
-        }
-    }
-    for &v in &face.embedded_vertices {
-        add_fixed(v, None, &mut hint)?;
-    }
-    let loops_uv: Vec<Vec<[f64; 2]>> = loop_locals
-        .iter()
-        .map(|l| l.iter().map(|&k| fixed_uv[k]).collect())
-        .collect();
-    // directed boundary segments with the face on their left: the first loop
-    // is the outer one (face inside it), the others holes (face outside)
-    let periods = surface.periods();
-    if periods[0].is_some() && periods[1].is_some() && !loops_uv.is_empty() {
-        return Err(MeshError::Unsupported(
-            "a face with boundary loops on a surface periodic in both u and v (a trimmed torus) is not supported yet"
-                .into(),
-        ));
-    }
-    let region = if periods.iter().any(|p| p.is_some()) || loops_uv.is_empty() {
-        Region::periodic(&loops_uv, periods, domain_box(surface))
-    } else {
-        Region::new(&loops_uv)
-    };
-    // directed boundary segments with the face on their left. On a plane
-    // (or any non-periodic parametrization) the first loop is the outer one
-    // (face inside it) and the others holes, told apart by signed area; on a
-    // periodic surface a loop may close only through the period (a circle
-    // around a cylinder), so the side is found by asking the region about
-    // points just left of the loop's segments.
-    for (li, (locals, luv)) in loop_locals.iter().zip(&loops_uv).enumerate() {
-        let face_on_left = if periods.iter().all(|p| p.is_none()) {
-            // relative to the loop's first point: far from the origin (a
-            // unit square at (1e8, 1e8)) the products of absolute
-            // coordinates cancel and the sign is noise
-            let o = luv.first().copied().unwrap_or([0.0, 0.0]);
-            let area2: f64 = (0..luv.len())
-                .map(|k| {
-                    let (a, b) = (luv[k], luv[(k + 1) % luv.len()]);
-                    let (a, b) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
-                    a[0] * b[1] - b[0] * a[1]
-                })
-                .sum();
-            let ccw = area2 > 0.0;
-            if li == 0 {
-                ccw
-            } else {
-                !ccw
-            }
-        } else {
-            let mut votes = 0i32;
-            let m = luv.len();
-            for k in (0..m).step_by((m / 16).max(1)) {
-                let a = luv[k];
-                let mut b = luv[(k + 1) % m];
-                for c in 0..2 {
-                    if let Some(p) = periods[c] {
-                        b[c] = a[c] + ((b[c] - a[c]) - p * ((b[c] - a[c]) / p).round());
-                    }
-                }
-                let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-                let left = [mid[0] - 0.01 * (b[1] - a[1]), mid[1] + 0.01 * (b[0] - a[0])];
-                let right = [mid[0] + 0.01 * (b[1] - a[1]), mid[1] - 0.01 * (b[0] - a[0])];
-                votes += region.contains(left[0], left[1]) as i32
-                    - region.contains(right[0], right[1]) as i32;
-            }
-            votes >= 0
-        };
-        for k in 0..locals.len() {
-            let (a, b) = (locals[k], locals[(k + 1) % locals.len()]);
-            boundary.push(if face_on_left { [a, b] } else { [b, a] });
-        }
-    }
-    let (lo, hi) = region.bbox();
-    let carrier = OnFace::new(surface, region, fe);
 
-    // stage 1: oblique quadtree
-    let uniform_leaf = spacing.constant().filter(|_| surface.is_planar()).map(|d| {
-        let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-        let dv = surface.derivs(c[0], c[1]);
-        // parameter length of one spacing along u (1 on a plane)
-        d / dv.su.norm().max(f64::MIN_POSITIVE)
-    });
-    let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
-        let d = spacing.spacing(&SpacingQuery {
-            point: *p,
-            entity: fe,
-            params: uv,
-        });
-        check_spacing(d, *p, fe)
-    };
-    let mut d_outside = fixed_ids
-        .iter()
-        .map(|&id| node_d[id as usize])
-        .fold(f64::INFINITY, f64::min);
-    if !d_outside.is_finite() {
-        // a closed face has no boundary bubbles: sample the spacing on it
-        for k in 0..=8 {
-            for l in 0..=8 {
-                let uv = [
-                    lo[0] + (hi[0] - lo[0]) * k as f64 / 8.0,
-                    lo[1] + (hi[1] - lo[1]) * l as f64 / 8.0,
-                ];
-                if carrier.contains(uv) {
-                    let p = carrier.point(uv);
-                    d_outside = d_outside.min(d_at(&p, uv)?);
-                }
-            }
-        }
-    }
-    let seeds = placement::oblique_quadtree(&carrier, lo, hi, uniform_leaf, d_outside, &mut d_at)?;
-
-    // boundary layer: one bubble over each boundary segment, at the apex of
-    // the near-equilateral triangle on it (see `placement::apex_seeds`)
-    let fixed_pos: Vec<P3> = fixed_ids
-        .iter()
-        .map(|&id| mesh.nodes[id as usize].pos)
-        .collect();
-    let fixed_d: Vec<f64> = fixed_ids.iter().map(|&id| node_d[id as usize]).collect();
-    let apex = if APEX_LAYER {
-        placement::apex_seeds(
-            &carrier, &boundary, &fixed_pos, &fixed_uv, &fixed_d, &mut d_at,
-        )?
-    } else {
-        Vec::new()
-    };
-    // keep the apex seeds, then the lattice seeds, that do not crowd a
-    // fixed bubble or an earlier accepted seed (closer than 0.75 r0); seeds
-    // of one uniform lattice cannot crowd each other, so that check is only
-    // made for a varying spacing
-    // on curved faces stage 2 starts from one grown crystal (see `growth`);
-    // the quadtree's seeds fill what the growth did not reach. Planar faces
-    // keep the quadtree: its lattice is exact for a uniform spacing, and for
-    // a graded one growth measured no better (cases B, C: q mean 0.981 and
-    // 0.979 grown, 0.982 and 0.978 from the quadtree, q min lower grown)
-    let grown = if grow && !opts.fast && !surface.is_planar() {
-        match growth_start(&seeds, &fixed_pos, surface, lo, hi) {
-            Some(start) => {
-                let obstacles: Vec<(P3, f64)> = fixed_pos
-                    .iter()
-                    .cloned()
-                    .zip(fixed_d.iter().cloned())
-                    .chain(apex.iter().map(|s| (s.pos, s.d)))
-                    .collect();
-                growth::grow(&carrier, start, &obstacles, &mut d_at)?
-            }
-            None => Vec::new(),
-        }
-    } else {
-        Vec::new()
-    };
-    let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
-    let accepted = {
-        let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
-        let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
-        let fixed_grid = grid::Grid::new(&fixed_pos, 1.5 * dmin_fixed);
-        let crowds = |p: &P3,
-                      d: f64,
-                      pos: &[P3],
-                      ds: &[f64],
-                      g: &grid::Grid,
-                      reach: f64,
-                      skip: &dyn Fn(usize) -> bool| {
-            let mut hit = false;
-            g.query(p, 0.75 * 0.5 * (d + reach), |j| {
-                let j = j as usize;
-                if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
-                    hit = true;
-                }
-            });
-            hit
-        };
-        let mut keep: Vec<bool> = all
+    /// The face's (u,v) region bounded by its loops, and the loops'
+    /// segments directed with the face on their left (into
+    /// `boundary.directed`).
+    fn region(&self, boundary: &mut Boundary) -> Result<Region, MeshError> {
+        let surface = self.surface;
+        let loops_uv: Vec<Vec<[f64; 2]>> = boundary
+            .loop_locals
             .iter()
-            .map(|s| {
-                !crowds(
-                    &s.pos,
-                    s.d,
-                    &fixed_pos,
-                    &fixed_d,
-                    &fixed_grid,
-                    dmax_fixed,
-                    &|_| false,
-                )
-            })
+            .map(|l| l.iter().map(|&k| boundary.uv[k]).collect())
             .collect();
-        if spacing.constant().is_none() || APEX_LAYER || !surface.is_planar() {
-            let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
-            let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
-            let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
-            let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
-            let g = grid::Grid::new(&spos, 1.5 * dmin);
-            for i in 0..all.len() {
-                if keep[i] {
-                    let earlier_kept = |j: usize| !(j < i && keep[j]);
-                    if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
-                        keep[i] = false;
+        let periods = surface.periods();
+        if periods[0].is_some() && periods[1].is_some() && !loops_uv.is_empty() {
+            return Err(MeshError::Unsupported(
+                "a face with boundary loops on a surface periodic in both u and v (a trimmed torus) is not supported yet"
+                    .into(),
+            ));
+        }
+        let region = if periods.iter().any(|p| p.is_some()) || loops_uv.is_empty() {
+            Region::periodic(&loops_uv, periods, domain_box(surface))
+        } else {
+            Region::new(&loops_uv)
+        };
+        // directed boundary segments with the face on their left. On a plane
+        // (or any non-periodic parametrization) the first loop is the outer
+        // one (face inside it) and the others holes, told apart by signed
+        // area; on a periodic surface a loop may close only through the
+        // period (a circle around a cylinder), so the side is found by asking
+        // the region about points just left of the loop's segments.
+        for (li, (locals, luv)) in boundary.loop_locals.iter().zip(&loops_uv).enumerate() {
+            let face_on_left = if periods.iter().all(|p| p.is_none()) {
+                let ccw = signed_area2(luv) > 0.0;
+                if li == 0 {
+                    ccw
+                } else {
+                    !ccw
+                }
+            } else {
+                face_left_of_periodic_loop(&region, luv, periods)
+            };
+            for k in 0..locals.len() {
+                let (a, b) = (locals[k], locals[(k + 1) % locals.len()]);
+                boundary
+                    .directed
+                    .push(if face_on_left { [a, b] } else { [b, a] });
+            }
+        }
+        Ok(region)
+    }
+
+    /// Stage 1 (§4.1.2): the oblique quadtree's seeds, on a curved face
+    /// after a grown crystal (see [`growth`]), those that do not crowd a
+    /// fixed bubble or an earlier seed; returns the bubble system with the
+    /// fixed bubbles and the seeds.
+    fn stage1(
+        &self,
+        carrier: OnFace<'a>,
+        boundary: &Boundary,
+        mesh: &Mesh,
+    ) -> Result<System<'a, OnFace<'a>>, MeshError> {
+        let (surface, spacing, fe) = (self.surface, self.inputs.spacing, self.fe);
+        let node_d = self.inputs.node_d;
+        let (lo, hi) = carrier.region.bbox();
+        let uniform_leaf = spacing.constant().filter(|_| surface.is_planar()).map(|d| {
+            let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            let dv = surface.derivs(c[0], c[1]);
+            // parameter length of one spacing along u (1 on a plane)
+            d / dv.su.norm().max(f64::MIN_POSITIVE)
+        });
+        let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
+            let d = spacing.spacing(&SpacingQuery {
+                point: *p,
+                entity: fe,
+                params: uv,
+            });
+            check_spacing(d, *p, fe)
+        };
+        let mut d_outside = boundary
+            .ids
+            .iter()
+            .map(|&id| node_d[id as usize])
+            .fold(f64::INFINITY, f64::min);
+        if !d_outside.is_finite() {
+            // a closed face has no boundary bubbles: sample the spacing on it
+            for k in 0..=8 {
+                for l in 0..=8 {
+                    let uv = [
+                        lo[0] + (hi[0] - lo[0]) * k as f64 / 8.0,
+                        lo[1] + (hi[1] - lo[1]) * l as f64 / 8.0,
+                    ];
+                    if carrier.contains(uv) {
+                        let p = carrier.point(uv);
+                        d_outside = d_outside.min(d_at(&p, uv)?);
                     }
                 }
             }
         }
-        all.into_iter()
-            .zip(keep)
-            .filter(|(_, k)| *k)
-            .map(|(s, _)| s)
-            .collect::<Vec<_>>()
-    };
-    let seeds = accepted;
-    let mut sys = System {
-        carrier,
-        spacing,
-        dim: 2,
-        n_fixed: fixed_ids.len(),
-        pos: fixed_pos,
-        params: fixed_uv,
-        vel: vec![V3::zeros(); fixed_ids.len()],
-        d: fixed_d,
-        fixed_ids,
-        // the pressure helps graded packings anneal; with a uniform spacing
-        // it only slows the lattice down (measured on cases E and G)
-        pressure: if spacing.constant().is_some() {
-            1.0
+        let seeds =
+            placement::oblique_quadtree(&carrier, lo, hi, uniform_leaf, d_outside, &mut d_at)?;
+
+        // boundary layer: one bubble over each boundary segment, at the apex
+        // of the near-equilateral triangle on it (see `placement::apex_seeds`)
+        let fixed_pos: Vec<P3> = boundary
+            .ids
+            .iter()
+            .map(|&id| mesh.nodes[id as usize].pos)
+            .collect();
+        let fixed_d: Vec<f64> = boundary.ids.iter().map(|&id| node_d[id as usize]).collect();
+        let apex = if PRM.apex_layer {
+            placement::apex_seeds(
+                &carrier,
+                &boundary.directed,
+                &fixed_pos,
+                &boundary.uv,
+                &fixed_d,
+                &mut d_at,
+            )?
         } else {
-            system::PRESSURE
-        },
-    };
-    // the quadtree's root starts left of the box, so on a periodic surface
-    // a seed may lie one period off: stage 2 wraps the bubbles it moves, but
-    // with stage 1 alone (`--fast`) the connection needs every (u,v) in the
-    // fundamental domain
-    for s in seeds {
-        let uv = sys.carrier.region.wrap(s.params);
-        sys.push_free(s.pos, uv, s.d);
+            Vec::new()
+        };
+        // on curved faces stage 2 starts from one grown crystal (see
+        // `growth`); the quadtree's seeds fill what the growth did not reach.
+        // Planar faces keep the quadtree: its lattice is exact for a uniform
+        // spacing, and for a graded one growth measured no better (cases B,
+        // C: q mean 0.981 and 0.979 grown, 0.982 and 0.978 from the
+        // quadtree, q min lower grown)
+        let grown = if self.grow && !self.inputs.opts.fast && !surface.is_planar() {
+            match growth_start(&seeds, &fixed_pos, surface, lo, hi) {
+                Some(start) => {
+                    let obstacles: Vec<(P3, f64)> = fixed_pos
+                        .iter()
+                        .cloned()
+                        .zip(fixed_d.iter().cloned())
+                        .chain(apex.iter().map(|s| (s.pos, s.d)))
+                        .collect();
+                    growth::grow(&carrier, start, &obstacles, &mut d_at)?
+                }
+                None => Vec::new(),
+            }
+        } else {
+            Vec::new()
+        };
+        let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
+        // seeds of one uniform lattice cannot crowd each other, so that
+        // check is only made for a varying spacing
+        let check_seeds = spacing.constant().is_none() || PRM.apex_layer || !surface.is_planar();
+        let seeds = uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
+        let n_fixed = boundary.ids.len();
+        let mut sys = System {
+            carrier,
+            spacing,
+            dim: 2,
+            n_fixed,
+            pos: fixed_pos,
+            params: boundary.uv.clone(),
+            vel: vec![V3::zeros(); n_fixed],
+            d: fixed_d,
+            fixed_ids: boundary.ids.clone(),
+            // the pressure helps graded packings anneal; with a uniform
+            // spacing it only slows the lattice down (measured on cases E
+            // and G)
+            pressure: if spacing.constant().is_some() {
+                1.0
+            } else {
+                system::PRESSURE
+            },
+        };
+        // the quadtree's root starts left of the box, so on a periodic
+        // surface a seed may lie one period off: stage 2 wraps the bubbles it
+        // moves, but with stage 1 alone (`--fast`) the connection needs every
+        // (u,v) in the fundamental domain
+        for s in seeds {
+            let uv = sys.carrier.region.wrap(s.params);
+            sys.push_free(s.pos, uv, s.d);
+        }
+        Ok(sys)
     }
-    let mut fr = FaceReport {
-        face: fi as u32,
-        name: face.name.clone(),
-        boundary_bubbles: sys.n_fixed,
-        stage1_bubbles: sys.n() - sys.n_fixed,
-        ..Default::default()
-    };
-    timings.stage1_s += t1.elapsed().as_secs_f64();
 
-    // whether the face bounds a volume that is meshed next
-    let bounds_volume = opts.dim.unwrap_or(model.dim()) >= 3
-        && model.volumes.iter().any(|v| v.faces.contains(&(fi as u32)));
-
-    // stage 2
-    if !opts.fast {
-        let t2 = Instant::now();
+    /// Stage 2 (§4.3–4.7): relaxation with population control.
+    fn stage2(&self, sys: &mut System<'a, OnFace<'a>>) -> Result<RelaxStats, MeshError> {
+        let opts = self.inputs.opts;
         // a uniformly spaced face that only bounds a volume stops earlier
         // (see system::PLATEAU_BOUNDARY)
-        let settings = if bounds_volume && spacing.constant().is_some() {
+        let settings = if self.bounds_volume && self.inputs.spacing.constant().is_some() {
             system::RelaxSettings {
                 plateau: opts.relax.plateau.max(system::PLATEAU_BOUNDARY),
                 ..opts.relax
@@ -495,23 +598,28 @@ pub(crate) fn mesh_face(
         } else {
             opts.relax
         };
-        let stats = sys.relax(
+        sys.relax(
             &settings,
-            relax_progress(&opts.progress, fe, settings.max_steps),
-        )?;
-        fr.relax = Some(stats);
-        timings.stage2_s += t2.elapsed().as_secs_f64();
+            relax_progress(&opts.progress, self.fe, settings.max_steps),
+        )
     }
-    fr.bubbles = sys.n() - sys.n_fixed;
 
-    // connection
-    let t3 = Instant::now();
-    let keep = |c: [f64; 2]| {
-        sys.carrier.region.contains(c[0], c[1]) && surface.trim(c[0], c[1]).unwrap_or(true)
-    };
-    let mut tris = if surface.is_planar() {
-        connect::triangulate(&sys.params, &segments, &boundary, keep)?
-    } else {
+    /// Connection (§4.8): constrained Delaunay triangulation in (u,v) on a
+    /// plane; on a curved surface in (u,v) scaled to the surface, and in the
+    /// tangent plane near a singular point (a cap).
+    fn connect(
+        &self,
+        sys: &System<'a, OnFace<'a>>,
+        boundary: &Boundary,
+    ) -> Result<Vec<[usize; 3]>, MeshError> {
+        let surface = self.surface;
+        let (segments, directed) = (&boundary.segments, &boundary.directed);
+        let keep = |c: [f64; 2]| {
+            sys.carrier.region.contains(c[0], c[1]) && surface.trim(c[0], c[1]).unwrap_or(true)
+        };
+        if surface.is_planar() {
+            return Ok(connect::triangulate(&sys.params, segments, directed, keep)?);
+        }
         let normal: Vec<V3> = sys
             .params
             .iter()
@@ -522,7 +630,7 @@ pub(crate) fn mesh_face(
         // fixed ones too (an apex vertex), unless a boundary segment ends
         // there (segments stay in the (u,v) triangulation)
         let mut on_segment = vec![false; sys.n()];
-        for s in &segments {
+        for s in segments {
             on_segment[s[0]] = true;
             on_segment[s[1]] = true;
         }
@@ -531,7 +639,7 @@ pub(crate) fn mesh_face(
                 !on_segment[i]
                     && poles
                         .iter()
-                        .any(|q| (sys.pos[i] - q).norm() < CAP_RADIUS * sys.d[i])
+                        .any(|q| (sys.pos[i] - q).norm() < PRM.cap_radius * sys.d[i])
             })
             .collect();
         let pts = connect::SurfacePoints {
@@ -540,85 +648,170 @@ pub(crate) fn mesh_face(
             normal: &normal,
             d: &sys.d,
             singular: &singular,
-            periods,
+            periods: surface.periods(),
             origin: domain_box(surface).0,
             scale: parameter_scale(surface, &sys.params),
         };
-        connect::triangulate_surface(&pts, &segments, &boundary)?
-    };
-    if !opts.fast && IMPROVE_ROUNDS > 0 {
-        improve::improve(&mut sys, &mut tris, &segments, IMPROVE_ROUNDS)?;
+        Ok(connect::triangulate_surface(&pts, segments, directed)?)
     }
-    // a graded planar face: try the lattice conformal to the spacing (see
-    // `conformal`) and keep it if its mean radius ratio is better. Not on a
-    // face bounding a volume meshed next: the tetrahedra do not gain from it
-    // (case I: q mean 0.901 with it, 0.902 without) and it cost 2.3 s there.
-    let t_lattice = Instant::now();
-    if !opts.fast
-        && !bounds_volume
-        && surface.is_planar()
-        && spacing.constant().is_none()
-        && isometric(surface, lo, hi)
-    {
-        if let Some((cones, relax)) = conformal_restart(
-            &mut sys,
-            &mut tris,
-            &segments,
-            &boundary,
-            &loop_locals,
-            fe,
-            &opts.relax,
-        )? {
-            fr.lattice_cones = Some(cones);
-            fr.relax = Some(relax);
+
+    /// Whether the face is rebuilt from the lattice conformal to its spacing
+    /// (see [`conformal`]): a graded planar face with an isometric (u,v).
+    /// Not on a face bounding a volume meshed next: the tetrahedra do not
+    /// gain from it (case I: q mean 0.901 with it, 0.902 without) and it
+    /// cost 2.3 s there.
+    fn wants_conformal_lattice(&self, lo: [f64; 2], hi: [f64; 2]) -> bool {
+        !self.inputs.opts.fast
+            && !self.bounds_volume
+            && self.surface.is_planar()
+            && self.inputs.spacing.constant().is_none()
+            && isometric(self.surface, lo, hi)
+    }
+
+    /// The free bubbles become nodes and the triangles elements of `mesh`;
+    /// returns the number of new nodes. A bubble the connection left without
+    /// a triangle (it sat within half a spacing of another near a singular
+    /// point) is dropped rather than left as an unreferenced node.
+    fn emit(&self, sys: &System<'a, OnFace<'a>>, tris: &[[usize; 3]], mesh: &mut Mesh) -> usize {
+        let nf = sys.n_fixed;
+        let fe = self.fe;
+        let mut referenced = vec![false; sys.n()];
+        for t in tris {
+            for &v in t {
+                referenced[v] = true;
+            }
         }
-    }
-    let lattice_s = t_lattice.elapsed().as_secs_f64();
-    timings.lattice_s += lattice_s;
-    let nf = sys.n_fixed;
-    // free bubbles become nodes; one the connection left without a triangle
-    // (it sat within half a spacing of another near a singular point) is
-    // dropped rather than left as an unreferenced node
-    let mut referenced = vec![false; sys.n()];
-    for t in &tris {
-        for &v in t {
-            referenced[v] = true;
+        let mut node_of = vec![u32::MAX; sys.n()];
+        for i in nf..sys.n() {
+            if referenced[i] {
+                node_of[i] = mesh.nodes.len() as u32;
+                mesh.nodes.push(Node {
+                    pos: sys.pos[i],
+                    entity: fe,
+                    params: sys.params[i],
+                });
+            }
         }
-    }
-    let mut node_of = vec![u32::MAX; sys.n()];
-    for i in nf..sys.n() {
-        if referenced[i] {
-            node_of[i] = mesh.nodes.len() as u32;
-            mesh.nodes.push(Node {
-                pos: sys.pos[i],
+        let global = |l: usize| -> u32 {
+            if l < nf {
+                sys.fixed_ids[l]
+            } else {
+                node_of[l]
+            }
+        };
+        for t in tris {
+            mesh.triangles.push(Element {
+                nodes: [global(t[0]), global(t[1]), global(t[2])],
                 entity: fe,
-                params: sys.params[i],
             });
         }
+        (nf..sys.n()).filter(|&i| referenced[i]).count()
     }
-    fr.bubbles = (nf..sys.n()).filter(|&i| referenced[i]).count();
-    let global = |l: usize| -> u32 {
-        if l < nf {
-            sys.fixed_ids[l]
-        } else {
-            node_of[l]
+}
+
+/// Twice the signed area of a (u,v) polygon, positive when counterclockwise.
+/// Relative to the polygon's first point: far from the origin (a unit square
+/// at (1e8, 1e8)) the products of absolute coordinates cancel and the sign
+/// is noise.
+fn signed_area2(luv: &[[f64; 2]]) -> f64 {
+    let o = luv.first().copied().unwrap_or([0.0, 0.0]);
+    (0..luv.len())
+        .map(|k| {
+            let (a, b) = (luv[k], luv[(k + 1) % luv.len()]);
+            let (a, b) = ([a[0] - o[0], a[1] - o[1]], [b[0] - o[0], b[1] - o[1]]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
+}
+
+/// Whether the face lies left of a loop on a periodic surface, by a vote of
+/// the region about points just left and right of (up to 16 of) its
+/// segments.
+fn face_left_of_periodic_loop(
+    region: &Region,
+    luv: &[[f64; 2]],
+    periods: [Option<f64>; 2],
+) -> bool {
+    let mut votes = 0i32;
+    let m = luv.len();
+    for k in (0..m).step_by((m / 16).max(1)) {
+        let a = luv[k];
+        let mut b = luv[(k + 1) % m];
+        for c in 0..2 {
+            if let Some(p) = periods[c] {
+                b[c] = a[c] + ((b[c] - a[c]) - p * ((b[c] - a[c]) / p).round());
+            }
         }
-    };
-    for t in &tris {
-        mesh.triangles.push(Element {
-            nodes: [global(t[0]), global(t[1]), global(t[2])],
-            entity: fe,
+        let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        let left = [mid[0] - 0.01 * (b[1] - a[1]), mid[1] + 0.01 * (b[0] - a[0])];
+        let right = [mid[0] + 0.01 * (b[1] - a[1]), mid[1] - 0.01 * (b[0] - a[0])];
+        votes +=
+            region.contains(left[0], left[1]) as i32 - region.contains(right[0], right[1]) as i32;
+    }
+    votes >= 0
+}
+
+/// The seeds, in order, that do not crowd a fixed bubble or (with
+/// `check_seeds`) an earlier kept seed: closer than 0.75·r0.
+fn uncrowded(
+    all: Vec<placement::Seed>,
+    fixed_pos: &[P3],
+    fixed_d: &[f64],
+    check_seeds: bool,
+) -> Vec<placement::Seed> {
+    let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
+    let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
+    let fixed_grid = grid::Grid::new(fixed_pos, 1.5 * dmin_fixed);
+    let crowds = |p: &P3,
+                  d: f64,
+                  pos: &[P3],
+                  ds: &[f64],
+                  g: &grid::Grid,
+                  reach: f64,
+                  skip: &dyn Fn(usize) -> bool| {
+        let mut hit = false;
+        g.query(p, 0.75 * 0.5 * (d + reach), |j| {
+            let j = j as usize;
+            if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
+                hit = true;
+            }
         });
+        hit
+    };
+    let mut keep: Vec<bool> = all
+        .iter()
+        .map(|s| {
+            !crowds(
+                &s.pos,
+                s.d,
+                fixed_pos,
+                fixed_d,
+                &fixed_grid,
+                dmax_fixed,
+                &|_| false,
+            )
+        })
+        .collect();
+    if check_seeds {
+        let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
+        let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
+        let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
+        let g = grid::Grid::new(&spos, 1.5 * dmin);
+        for i in 0..all.len() {
+            if keep[i] {
+                let earlier_kept = |j: usize| !(j < i && keep[j]);
+                if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
+                    keep[i] = false;
+                }
+            }
+        }
     }
-    fr.triangles = tris.len();
-    if tris.is_empty() {
-        return Err(MeshError::Invalid(
-            "the face produced no triangles (is its parameter region empty, or the spacing larger than the face?)"
-                .into(),
-        ));
-    }
-    timings.connect_s += t3.elapsed().as_secs_f64() - lattice_s;
-    Ok(fr)
+    all.into_iter()
+        .zip(keep)
+        .filter(|(_, k)| *k)
+        .map(|(s, _)| s)
+        .collect()
 }
 
 /// Whether a planar face's (u,v) is an isometry (unit, orthogonal partials
@@ -631,6 +824,10 @@ fn isometric(surface: &dyn crate::geom::Surface, lo: [f64; 2], hi: [f64; 2]) -> 
         && dv.su.dot(&dv.sv).abs() < 1e-9
 }
 
+/// What a kept conformal restart reports: the cones placed (five-,
+/// seven-valent) and the second stage 2's statistics.
+type Restart = ((usize, usize), system::RelaxStats);
+
 /// Rebuilds a graded planar face from the lattice conformal to its spacing
 /// (`conformal::lattice_seeds` over the current mesh) as a new stage 1, and
 /// keeps the result if its mean radius ratio is higher and its edges are in
@@ -640,12 +837,12 @@ fn isometric(surface: &dyn crate::geom::Surface, lo: [f64; 2], hi: [f64; 2]) -> 
 fn conformal_restart<C: constraint::Carrier>(
     sys: &mut system::System<'_, C>,
     tris: &mut Vec<[usize; 3]>,
-    segments: &[[usize; 2]],
-    boundary: &[[usize; 2]],
-    loop_locals: &[Vec<usize>],
+    fixed: &Boundary,
     fe: EntityRef,
     settings: &system::RelaxSettings,
-) -> Result<Option<((usize, usize), system::RelaxStats)>, MeshError> {
+) -> Result<Option<Restart>, MeshError> {
+    let (segments, boundary) = (&fixed.segments[..], &fixed.directed[..]);
+    let loop_locals = &fixed.loop_locals;
     let nf = sys.n_fixed;
     let holes: Vec<Vec<usize>> = loop_locals.iter().skip(1).cloned().collect();
     let bg = conformal::Background {
@@ -684,8 +881,8 @@ fn conformal_restart<C: constraint::Carrier>(
                 if a < b {
                     let r = (sys.pos[a] - sys.pos[b]).norm() / (0.5 * (sys.d[a] + sys.d[b]));
                     all += 1;
-                    inside += (r >= std::f64::consts::FRAC_1_SQRT_2
-                        && r <= std::f64::consts::SQRT_2) as usize;
+                    inside += (std::f64::consts::FRAC_1_SQRT_2..=std::f64::consts::SQRT_2)
+                        .contains(&r) as usize;
                 }
             }
         }
@@ -714,13 +911,13 @@ fn conformal_restart<C: constraint::Carrier>(
         let carrier = &sys.carrier;
         let mut new_tris =
             connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;
-        improve::improve(sys, &mut new_tris, segments, IMPROVE_ROUNDS)?;
+        improve::improve(sys, &mut new_tris, segments, PRM.improve_rounds)?;
         improve::lift_mean(
             sys,
             &mut new_tris,
             segments,
-            LATTICE_MEAN_Q,
-            LATTICE_MEAN_ROUNDS,
+            PRM.lattice_mean_q,
+            PRM.lattice_mean_rounds,
         )?;
         Ok((relax, new_tris))
     })();

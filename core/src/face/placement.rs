@@ -1,132 +1,18 @@
-//! Stage 1: initial bubble placement by hierarchical subdivision (thesis
-//! §4.1).
-//!
-//! - Edges: recursive bisection of the parameter interval (§4.1.1), and the
-//!   population estimate of eq. 4.7.1 used by stage 2 on curves.
-//! - Faces: the *oblique quadtree* of 60°/120° rhombi (§4.1.2), which gives a
-//!   hexagonal lattice where the spacing is uniform.
+//! Stage 1 on faces: initial bubble placement by hierarchical subdivision
+//! (thesis §4.1.2), the *oblique quadtree* of 60°/120° rhombi, which gives a
+//! hexagonal lattice where the spacing is uniform. (Edges: `edge::placement`,
+//! §4.1.1.)
 //!
 //! All placement is O(n) in the number of bubbles placed.
 
-use crate::geom::{Curve, P3};
+use crate::geom::P3;
 
 use crate::bubbles::constraint::Carrier;
+pub(crate) use crate::bubbles::MAX_BUBBLES_PER_ENTITY;
 use crate::error::MeshError;
 
-/// Upper bound on bubbles one entity may receive; a spacing that asks for
-/// more is almost certainly a unit mistake and is reported instead of
-/// exhausting memory.
-pub const MAX_BUBBLES_PER_ENTITY: usize = 10_000_000;
-
-/// Recursive bisection of `[t0, t1]` (§4.1.1): a sub-interval is split at
-/// its parametric midpoint while the chord between its end bubbles is longer
-/// than the sum of their radii. Returns the interior parameters, sorted.
-pub fn bisect_edge(
-    curve: &dyn Curve,
-    t0: f64,
-    t1: f64,
-    d_at: &mut dyn FnMut(f64, &P3) -> Result<f64, MeshError>,
-    closed: bool,
-) -> Result<Vec<f64>, MeshError> {
-    let mut out = Vec::new();
-    // a closed curve starts from three pieces so its end bubbles are distinct
-    let mut stack: Vec<(f64, f64, P3, P3, f64, f64)> = Vec::new();
-    let seeds: Vec<f64> = if closed {
-        (0..=3).map(|k| t0 + (t1 - t0) * k as f64 / 3.0).collect()
-    } else {
-        vec![t0, t1]
-    };
-    let pts: Vec<P3> = seeds.iter().map(|&t| curve.point(t)).collect();
-    let mut ds = Vec::new();
-    for (t, p) in seeds.iter().zip(&pts) {
-        ds.push(d_at(*t, p)?);
-    }
-    for k in 1..seeds.len() - 1 {
-        out.push(seeds[k]);
-    }
-    for k in 0..seeds.len() - 1 {
-        stack.push((seeds[k], seeds[k + 1], pts[k], pts[k + 1], ds[k], ds[k + 1]));
-    }
-    while let Some((a, b, pa, pb, da, db)) = stack.pop() {
-        if (pa - pb).norm() <= 0.5 * (da + db) || (b - a) <= 1e-14 * (t1 - t0).abs() {
-            continue;
-        }
-        let m = 0.5 * (a + b);
-        let pm = curve.point(m);
-        let dm = d_at(m, &pm)?;
-        out.push(m);
-        if out.len() > MAX_BUBBLES_PER_ENTITY {
-            return Err(MeshError::TooManyBubbles {
-                limit: MAX_BUBBLES_PER_ENTITY,
-            });
-        }
-        stack.push((a, m, pa, pm, da, dm));
-        stack.push((m, b, pm, pb, dm, db));
-    }
-    out.sort_by(|a, b| a.total_cmp(b));
-    Ok(out)
-}
-
-/// Places bubbles on `[t0, t1]` so that every piece holds the same share of
-/// the weighted length ∫ ds/d, with the number of pieces from eq. 4.7.1
-/// (the weighted length, less the halves of the two end bubbles, gives the
-/// interior bubbles; pieces = interior + 1 = round(∫ ds/d)).
-/// Returns the interior parameters, sorted.
-pub fn equidistribute_edge(
-    curve: &dyn Curve,
-    t0: f64,
-    t1: f64,
-    d_at: &mut dyn FnMut(f64, &P3) -> Result<f64, MeshError>,
-    closed: bool,
-) -> Result<Vec<f64>, MeshError> {
-    // cumulative ∫ ds/d on a sampling fine enough that each sample step is
-    // a small fraction of the local spacing
-    let mut m = 256usize;
-    loop {
-        let ts: Vec<f64> = (0..=m)
-            .map(|k| t0 + (t1 - t0) * k as f64 / m as f64)
-            .collect();
-        let mut w = Vec::with_capacity(m + 1);
-        for &t in &ts {
-            let p = curve.point(t);
-            let d = d_at(t, &p)?;
-            w.push(curve.d1(t).norm() / d);
-        }
-        let mut cum = vec![0.0; m + 1];
-        for k in 0..m {
-            cum[k + 1] = cum[k] + 0.5 * (w[k] + w[k + 1]) * (ts[k + 1] - ts[k]);
-        }
-        let total = cum[m];
-        if !total.is_finite() {
-            return Err(MeshError::Invalid(
-                "weighted edge length is not finite".into(),
-            ));
-        }
-        // refine until there are at least 16 samples per piece
-        if (m as f64) < 16.0 * total && m < (1 << 26) {
-            m = ((16.0 * total) as usize + 1).next_power_of_two();
-            if m > MAX_BUBBLES_PER_ENTITY {
-                return Err(MeshError::TooManyBubbles {
-                    limit: MAX_BUBBLES_PER_ENTITY,
-                });
-            }
-            continue;
-        }
-        let min_pieces = if closed { 3 } else { 1 };
-        let pieces = (total.round() as usize).max(min_pieces);
-        let mut out = Vec::with_capacity(pieces.saturating_sub(1));
-        let mut k = 0;
-        for q in 1..pieces {
-            let target = total * q as f64 / pieces as f64;
-            while cum[k + 1] < target {
-                k += 1;
-            }
-            let f = (target - cum[k]) / (cum[k + 1] - cum[k]).max(f64::MIN_POSITIVE);
-            out.push(ts[k] + f * (ts[k + 1] - ts[k]));
-        }
-        return Ok(out);
-    }
-}
+/// d at a point of a face and its (u,v), checked finite and positive.
+pub type FaceSpacing<'a> = dyn FnMut(&P3, [f64; 2]) -> Result<f64, MeshError> + 'a;
 
 /// A free bubble proposed by stage 1.
 pub struct Seed {
@@ -156,7 +42,7 @@ pub fn oblique_quadtree<C: Carrier>(
     hi: [f64; 2],
     uniform_leaf: Option<f64>,
     d_outside: f64,
-    d_at: &mut dyn FnMut(&P3, [f64; 2]) -> Result<f64, MeshError>,
+    d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
     const SPLIT: f64 = std::f64::consts::SQRT_2;
     const MAX_LEVEL: u32 = 30;
@@ -304,7 +190,7 @@ pub fn apex_seeds<C: Carrier>(
     pos: &[P3],
     uv: &[[f64; 2]],
     d: &[f64],
-    d_at: &mut dyn FnMut(&P3, [f64; 2]) -> Result<f64, MeshError>,
+    d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
     let mut out = Vec::with_capacity(boundary.len());
     for &[a, b] in boundary {
@@ -338,4 +224,60 @@ pub fn apex_seeds<C: Carrier>(
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::testing::Square;
+
+    fn graded(x: f64) -> f64 {
+        0.05 + 0.1 * x
+    }
+
+    /// Seeds of the oblique quadtree (§4.1.2) on the unit square, counted
+    /// against the hexagonal lattice's density 2/(√3 d²): exact leaves for a
+    /// uniform spacing give the lattice itself; for a graded one the
+    /// leaves' sides lie in (d/√2, √2 d], and the count in the middle of
+    /// the square (away from the cells that straddle its boundary, where
+    /// the corners outside take `d_outside`) is right on average.
+    #[test]
+    fn quadtree_seed_density_matches_the_spacing() {
+        // the lattice's bubbles over [a, b]² for a spacing varying with x
+        let expected = |d: &dyn Fn(f64) -> f64, a: f64, b: f64| -> f64 {
+            let m = 1000;
+            let w = (b - a) / m as f64;
+            (0..m)
+                .map(|k| {
+                    let x = a + (k as f64 + 0.5) * w;
+                    2.0 / (3f64.sqrt() * d(x) * d(x)) * w * (b - a)
+                })
+                .sum()
+        };
+        let inside =
+            |s: &Seed, a: f64, b: f64| (a..b).contains(&s.pos.x) && (a..b).contains(&s.pos.y);
+        // uniform: the lattice
+        let d = 0.05;
+        let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
+        let seeds =
+            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], Some(d), d, &mut d_at).unwrap();
+        let e = expected(&|_| d, 0.0, 1.0);
+        let n = seeds.len() as f64;
+        assert!((n - e).abs() < 0.05 * e, "{n} seeds, {e:.0} expected");
+        for s in &seeds {
+            let nearest = seeds
+                .iter()
+                .filter(|t| !std::ptr::eq(*t, s))
+                .map(|t| (t.pos - s.pos).norm())
+                .fold(f64::INFINITY, f64::min);
+            assert!((nearest - d).abs() < 1e-9, "nearest {nearest}");
+        }
+        // graded
+        let mut d_at = |p: &P3, _: [f64; 2]| Ok(graded(p.x));
+        let seeds =
+            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], None, 0.05, &mut d_at).unwrap();
+        let e = expected(&graded, 0.2, 0.8);
+        let n = seeds.iter().filter(|s| inside(s, 0.2, 0.8)).count() as f64;
+        assert!((n - e).abs() < 0.25 * e, "{n} seeds, {e:.0} expected");
+    }
 }

@@ -150,8 +150,8 @@ impl Region {
 
     /// `(u,v)` moved into the fundamental domain of the periodic directions.
     pub fn wrap(&self, mut uv: [f64; 2]) -> [f64; 2] {
-        for c in 0..2 {
-            if let Some(p) = self.periods[c] {
+        for (c, period) in self.periods.iter().enumerate() {
+            if let Some(p) = *period {
                 uv[c] = self.origin[c] + (uv[c] - self.origin[c]).rem_euclid(p);
             }
         }
@@ -161,8 +161,8 @@ impl Region {
     /// Whether (u,v) is inside (even–odd rule over all loops).
     pub fn contains(&self, u: f64, v: f64) -> bool {
         let uv = self.wrap([u, v]);
-        for c in 0..2 {
-            if self.periods[c].is_none() && !(uv[c] >= self.lo[c] && uv[c] <= self.hi[c]) {
+        for (c, period) in self.periods.iter().enumerate() {
+            if period.is_none() && !(uv[c] >= self.lo[c] && uv[c] <= self.hi[c]) {
                 return false;
             }
         }
@@ -199,10 +199,6 @@ impl Region {
             }
         }
         (lo, hi)
-    }
-
-    pub fn periods(&self) -> [Option<f64>; 2] {
-        self.periods
     }
 }
 

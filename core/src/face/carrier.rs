@@ -1,0 +1,181 @@
+//! The carrier of a face's bubbles (thesis §4.5): bubbles move on the
+//! face's surface through their (u,v) and stay inside its trimmed region.
+//! The parameter step of a displacement is solved with the first
+//! fundamental form ([`parameter_step`]; see [`crate::bubbles::constraint`]
+//! for why not eq. 4.5.2 as printed); near a singular point of the
+//! parametrization the moved point is projected back instead.
+
+use crate::bubbles::constraint::{parameter_step, Carrier};
+use crate::face::region::Region;
+use crate::geom::{Surface, P3, V3};
+use crate::model::EntityRef;
+
+/// Bubbles on a trimmed surface. Build it with [`OnFace::new`].
+pub struct OnFace<'a> {
+    pub surface: &'a dyn Surface,
+    pub region: Region,
+    pub entity: EntityRef,
+    /// On a plane ([`Surface::is_planar`]: an affine parametrization),
+    /// S_u and S_v and the tangent frame, which are the same everywhere.
+    /// Why: for the six faces of case K, evaluating them per bubble and
+    /// step through the trait object cost more than the forces.
+    plane: Option<PlaneFrame>,
+}
+
+#[derive(Clone, Copy)]
+struct PlaneFrame {
+    su: V3,
+    sv: V3,
+    frame: (V3, V3),
+}
+
+impl<'a> OnFace<'a> {
+    pub fn new(surface: &'a dyn Surface, region: Region, entity: EntityRef) -> Self {
+        let mut f = OnFace {
+            surface,
+            region,
+            entity,
+            plane: None,
+        };
+        if surface.is_planar() {
+            let (lo, hi) = f.region.bbox();
+            let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            let dv = surface.derivs(mid[0], mid[1]);
+            if !f.degenerate(mid, &dv.su, &dv.sv) {
+                f.plane = Some(PlaneFrame {
+                    su: dv.su,
+                    sv: dv.sv,
+                    frame: f.frame(mid),
+                });
+            }
+        }
+        f
+    }
+}
+
+impl OnFace<'_> {
+    /// Whether the parametrization degenerates at `uv` (the adapter says so,
+    /// or S_u × S_v is tiny against |S_u|·|S_v| or against the larger of them
+    /// squared): there bubbles move by projection.
+    fn degenerate(&self, uv: [f64; 2], su: &V3, sv: &V3) -> bool {
+        if self.surface.is_singular(uv[0], uv[1]) {
+            return true;
+        }
+        let cross = su.cross(sv).norm();
+        let scale = su.norm_squared().max(sv.norm_squared());
+        !(cross > 1e-3 * scale)
+    }
+}
+
+impl OnFace<'_> {
+    /// Derivatives for the tangent plane at `params`; at a singular point
+    /// those of a point a hair toward the middle of the domain (the tangent
+    /// plane is the limit there).
+    fn tangent_derivs(&self, params: [f64; 2]) -> crate::geom::SurfaceDerivs {
+        let dv = self.surface.derivs(params[0], params[1]);
+        if !self.degenerate(params, &dv.su, &dv.sv) {
+            return dv;
+        }
+        let (lo, hi) = self.region.bbox();
+        let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        let q = [
+            params[0] + 1e-6 * (mid[0] - params[0]),
+            params[1] + 1e-6 * (mid[1] - params[1]),
+        ];
+        self.surface.derivs(q[0], q[1])
+    }
+}
+
+impl Carrier for OnFace<'_> {
+    fn entity(&self) -> EntityRef {
+        self.entity
+    }
+    fn advance(&self, _pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+        let uv = if let Some(pl) = &self.plane {
+            let step = parameter_step(&pl.su, &pl.sv, dx)?;
+            [params[0] + step[0], params[1] + step[1]]
+        } else {
+            let dv = self.surface.derivs(params[0], params[1]);
+            if self.degenerate(params, &dv.su, &dv.sv) {
+                // near a pole or an apex the first fundamental form is
+                // singular: project the moved point back onto the surface
+                // instead
+                self.surface.inverse(&(dv.p + dx), Some(params))?
+            } else {
+                let step = parameter_step(&dv.su, &dv.sv, dx)?;
+                [params[0] + step[0], params[1] + step[1]]
+            }
+        };
+        let uv = self.region.wrap(uv);
+        if !uv[0].is_finite() || !uv[1].is_finite() || !self.contains(uv) {
+            return None;
+        }
+        Some((self.surface.point(uv[0], uv[1]), uv))
+    }
+    fn frame(&self, params: [f64; 2]) -> (V3, V3) {
+        if let Some(pl) = &self.plane {
+            return pl.frame;
+        }
+        let dv = self.tangent_derivs(params);
+        let (a, b) = if dv.su.norm_squared() >= dv.sv.norm_squared() {
+            (dv.su, dv.sv)
+        } else {
+            (dv.sv, dv.su)
+        };
+        let t1 = a.normalize();
+        let mut t2 = b - t1 * t1.dot(&b);
+        if t2.norm_squared() <= 0.0 {
+            t2 = t1.cross(&V3::z()).cross(&t1);
+        }
+        (t1, t2.normalize())
+    }
+    fn contains(&self, params: [f64; 2]) -> bool {
+        match self.surface.trim(params[0], params[1]) {
+            Some(inside) => inside && self.region.contains(params[0], params[1]),
+            None => self.region.contains(params[0], params[1]),
+        }
+    }
+    fn point(&self, params: [f64; 2]) -> P3 {
+        self.surface.point(params[0], params[1])
+    }
+    fn normal(&self, params: [f64; 2]) -> V3 {
+        let dv = self.tangent_derivs(params);
+        dv.su.cross(&dv.sv).normalize()
+    }
+    fn planar(&self) -> bool {
+        self.surface.is_planar()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::system::RelaxSettings;
+    use crate::bubbles::testing::{self, hex_fill, square_system};
+    use crate::geom::Plane;
+    use crate::spacing::Constant;
+
+    /// Bubbles moved by the first fundamental form stay on the face and
+    /// inside its region, even when every one is kicked toward the outside.
+    #[test]
+    fn face_bubbles_stay_inside_the_region() {
+        let s = Constant(0.05);
+        let boundary = square_system(&s).params;
+        let plane = Plane::xy();
+        let carrier = OnFace::new(
+            &plane,
+            Region::new(std::slice::from_ref(&boundary)),
+            EntityRef::new(2, 0),
+        );
+        let mut sys = testing::system(carrier, &s, boundary, 2);
+        hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
+        for i in sys.n_fixed..sys.n() {
+            sys.vel[i] = V3::new(sys.pos[i].x - 0.5, sys.pos[i].y - 0.5, 0.0) * 2.0;
+        }
+        sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+        for i in sys.n_fixed..sys.n() {
+            assert!(sys.carrier.contains(sys.params[i]));
+            assert_eq!(sys.pos[i].z, 0.0);
+        }
+    }
+}
