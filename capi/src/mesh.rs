@@ -5,7 +5,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 use std::sync::Arc;
 
-use bubblemesh_core::engine::{MeshError, Options, Progress, Report};
+use bubblemesh_core::engine::{Event, MeshError, Options, Report};
 use bubblemesh_core::model::EntityRef;
 use bubblemesh_core::spacing::Constant;
 use bubblemesh_core::{mesh_model, Mesh, Model};
@@ -158,16 +158,27 @@ fn engine_options(opts: &bm_options, dim: Option<u8>) -> Options {
     }
     if let Some(f) = opts.progress {
         let user = UserPtr(opts.progress_user);
-        o.progress = Some(Arc::new(move |p: Progress| {
-            let phase = CString::new(p.phase).unwrap_or_default();
+        // each stage-2 step is a "relax" progress report (the engine's
+        // other events are not part of the C interface)
+        o.observer = Some(Arc::new(move |e: &Event<'_>| {
+            let &Event::Step {
+                entity,
+                step,
+                max_steps,
+                ..
+            } = e
+            else {
+                return;
+            };
+            let phase = CString::new("relax").unwrap_or_default();
             let rc = unsafe {
                 f(
                     user.get(),
                     phase.as_ptr(),
-                    p.entity.dim as c_int,
-                    p.entity.id,
-                    p.step,
-                    p.max_steps,
+                    entity.dim as c_int,
+                    entity.id,
+                    step,
+                    max_steps,
                 )
             };
             if rc != 0 {
@@ -176,7 +187,7 @@ fn engine_options(opts: &bm_options, dim: Option<u8>) -> Options {
                     format!(
                         "cancelled by the progress callback (it returned {rc}) at step {} of {} \
                          on {}",
-                        p.step, p.max_steps, p.entity
+                        step, max_steps, entity
                     ),
                 ));
             }

@@ -22,6 +22,8 @@
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality;
 //!   [`verify`]: the last check a mesh passes before it may be written.
 
+#![forbid(unsafe_code)]
+
 pub mod bubbles;
 pub mod curvature;
 pub mod edge;

@@ -335,7 +335,7 @@ fn population_control_fills_a_gap() {
             .count()
     };
     assert_eq!(count_in_hole(&sys), 0);
-    let stats = sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+    let stats = sys.relax(&RelaxSettings::default(), |_, _, _| {}).unwrap();
     assert!(stats.added >= 10, "added {}", stats.added);
     // the hole's area holds about 0.12²π / (√3/2 · 0.05²) ≈ 21 bubbles
     let back = count_in_hole(&sys);
@@ -384,7 +384,7 @@ fn face_bubbles_stay_inside_the_region() {
     for i in sys.n_fixed..sys.n() {
         sys.vel[i] = V3::new(sys.pos[i].x - 0.5, sys.pos[i].y - 0.5, 0.0) * 2.0;
     }
-    sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+    sys.relax(&RelaxSettings::default(), |_, _, _| {}).unwrap();
     for i in sys.n_fixed..sys.n() {
         assert!(sys.carrier.contains(sys.params[i]));
         assert_eq!(sys.pos[i].z, 0.0);

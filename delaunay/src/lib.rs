@@ -34,6 +34,8 @@
 //! predicates to stay exact, between about 1e-60 and 1e60 in magnitude (no
 //! underflow/overflow of the degree-5 in-sphere products).
 
+#![forbid(unsafe_code)]
+
 mod pred;
 mod sort;
 

@@ -22,6 +22,8 @@
 //! - renderers never panic on a mesh that breaks the [`Mesh`] invariants:
 //!   they return [`VizError::InvalidMesh`].
 
+#![forbid(unsafe_code)]
+
 use std::path::Path;
 
 pub use bubblemesh_core::Mesh;

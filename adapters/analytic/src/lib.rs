@@ -13,9 +13,7 @@
 //!   sets (`docs/domain-format.md`), read into a
 //!   [`bubblemesh_core::model::Model`] by [`read_domain`] / [`parse_domain`].
 
-// `!(x > 0.0)` is used on purpose throughout: unlike `x <= 0.0` it is also
-// true for NaN, which is how invalid input is rejected without a panic.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![forbid(unsafe_code)]
 
 pub mod curves;
 pub mod domain;

@@ -321,7 +321,8 @@ impl<'a, C: Carrier> System<'a, C> {
     }
 
     /// Stage 2: relaxes the free bubbles to a force balance with adaptive
-    /// population control (§4.3–4.7). `progress(step)` is called each step.
+    /// population control (§4.3–4.7). `progress(step, positions, diameters)`
+    /// is called after each step.
     ///
     /// Work per step is proportional to the bubbles still moving: a bubble
     /// whose net force and velocity are negligible *sleeps* (it is held
@@ -331,7 +332,7 @@ impl<'a, C: Carrier> System<'a, C> {
     pub fn relax(
         &mut self,
         s: &RelaxSettings,
-        mut progress: impl FnMut(usize),
+        mut progress: impl FnMut(usize, &[P3], &[f64]),
     ) -> Result<RelaxStats, MeshError> {
         let h = dynamics::time_step(self.dim);
         let c = dynamics::damping(self.dim);
@@ -463,7 +464,7 @@ impl<'a, C: Carrier> System<'a, C> {
             };
             stats.steps = step;
             stats.final_max_move = max_move;
-            progress(step);
+            progress(step, &self.pos, &self.d);
             let population_open = step <= pop_until && quiet_checks < 3;
             if population_open && step % s.population_every == 0 {
                 // the first round looks at every bubble; later rounds only at

@@ -26,7 +26,7 @@ use crate::volume;
 pub use crate::bubbles::dynamics::Integrator;
 pub use crate::bubbles::system::{EnergySample, RelaxSettings, RelaxStats};
 pub use crate::error::MeshError;
-pub use crate::options::{Options, Progress, ProgressFn, Timings, VolumeLattice};
+pub use crate::options::{Event, ObserverFn, Options, Timings, VolumeLattice};
 
 /// What the run did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -247,8 +247,11 @@ fn mesh_once(
                     entity: e,
                 });
             }
-            let _ = edge;
             edge_nodes.push(ids);
+            opts.tell(&Event::Done {
+                entity: e,
+                mesh: &mesh,
+            });
         }
     }
     report.timings.edges_s = t_edges.elapsed().as_secs_f64();
@@ -279,7 +282,13 @@ fn mesh_once(
                 Err(MeshError::Connect(_)) if !opts.fast => face(false),
                 r => r,
             } {
-                Ok(fr) => report.faces.push(fr),
+                Ok(fr) => {
+                    report.faces.push(fr);
+                    opts.tell(&Event::Done {
+                        entity: e,
+                        mesh: &mesh,
+                    });
+                }
                 Err(err @ (MeshError::BadSpacing { .. } | MeshError::TooManyBubbles { .. })) => {
                     return Err(err.within(model.describe(e)).into())
                 }
@@ -335,7 +344,12 @@ fn mesh_once(
                 &mut report.timings,
             )
             .map_err(|x| x.within(model.describe(e)))?;
+            tell_passes(opts, e, &vr);
             report.volumes.push(vr);
+            opts.tell(&Event::Done {
+                entity: e,
+                mesh: &mesh,
+            });
         }
     }
     // never silently wrong: the mesh leaves the engine only after its check
@@ -402,4 +416,40 @@ fn orient_volume_faces(model: &Model, mesh: &mut Mesh, strict: bool) -> Result<(
         .collect();
     orient::orient_faces(model, mesh, &free, false);
     Ok(())
+}
+
+/// Tells the observer of the improvement passes of volume `entity`, from
+/// its report (the volume stage times each pass).
+fn tell_passes(opts: &Options, entity: EntityRef, r: &volume::VolumeReport) {
+    if opts.observer.is_none() {
+        return;
+    }
+    let passes: [(&'static str, f64, &[(&'static str, f64)]); 4] = [
+        ("odt", r.odt_s, &[("iterations", r.odt_iterations as f64)]),
+        (
+            "delaunay",
+            r.delaunay_s,
+            &[
+                ("tetrahedra", r.tetrahedra as f64),
+                ("recovery_removed", r.recovery_removed as f64),
+            ],
+        ),
+        ("slivers", r.sliver_s, &[("steiner", r.steiner as f64)]),
+        (
+            "polish",
+            r.polish_s,
+            &[
+                ("moves", r.polish_moves as f64),
+                ("flips", r.polish_flips as f64),
+            ],
+        ),
+    ];
+    for (name, seconds, stats) in passes {
+        opts.tell(&Event::Pass {
+            entity,
+            name,
+            seconds,
+            stats,
+        });
+    }
 }

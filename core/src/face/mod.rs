@@ -20,7 +20,7 @@ use crate::error::{check_spacing, MeshError};
 use crate::geom::{P3, V3};
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
-use crate::options::{relax_progress, Options, Timings};
+use crate::options::{Options, Timings};
 use crate::spacing::{Spacing, SpacingQuery};
 
 use region::Region;
@@ -477,6 +477,7 @@ pub(crate) fn mesh_face(
         ..Default::default()
     };
     timings.stage1_s += t1.elapsed().as_secs_f64();
+    opts.stage1_done(fe, sys.n_fixed, &sys.pos, &sys.d);
 
     // whether the face bounds a volume that is meshed next
     let bounds_volume = opts.dim.unwrap_or(model.dim()) >= 3
@@ -497,7 +498,7 @@ pub(crate) fn mesh_face(
         };
         let stats = sys.relax(
             &settings,
-            relax_progress(&opts.progress, fe, settings.max_steps),
+            opts.relax_observer(fe, settings.max_steps, sys.n_fixed),
         )?;
         fr.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();
@@ -710,7 +711,7 @@ fn conformal_restart<C: constraint::Carrier>(
     // lattice leaves only the positions to settle. An error on this path
     // (say a constraint the connection cannot keep) leaves the packed mesh.
     let attempt = (|| -> Result<_, MeshError> {
-        let relax = sys.relax(settings, |_| {})?;
+        let relax = sys.relax(settings, |_, _, _| {})?;
         let carrier = &sys.carrier;
         let mut new_tris =
             connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;

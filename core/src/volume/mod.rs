@@ -565,6 +565,7 @@ pub(super) fn mesh_volume(
         sys.push_free(p, [0.0; 2], d);
     }
     timings.stage1_s += t0.elapsed().as_secs_f64();
+    opts.stage1_done(ve, sys.n_fixed, &sys.pos, &sys.d);
     // a BCC lattice needs neither stage 2 nor ODT (module docs)
     let relax = !opts.fast && lattice == Lattice::Fcc;
     if relax {
@@ -579,7 +580,7 @@ pub(super) fn mesh_volume(
         };
         let stats = sys.relax(
             &settings,
-            crate::options::relax_progress(&opts.progress, ve, settings.max_steps),
+            opts.relax_observer(ve, settings.max_steps, sys.n_fixed),
         )?;
         rep.relax = Some(stats);
         timings.stage2_s += t2.elapsed().as_secs_f64();
