@@ -1,15 +1,32 @@
 //! The bubble engine: meshing in the order of dimensions (thesis §3.2.3).
 //!
 //! 1. Vertex bubbles: one fixed node per model vertex.
-//! 2. Edge meshing: stage 1 by recursive bisection (§4.1.1); stage 2 places
-//!    the number of bubbles of eq. 4.7.1 and relaxes the chain to the force
-//!    balance (§4.2–4.5).
-//! 3. Face meshing: stage 1 by the oblique quadtree (§4.1.2); stage 2 by
-//!    damped dynamics with population control (§4.3–4.7), bubbles held on
-//!    the face through their (u,v) (§4.5); then constrained Delaunay
-//!    connection in (u,v).
+//! 2. Edges (`crate::edge`): stage 1 by recursive bisection (§4.1.1);
+//!    stage 2 places the number of bubbles of eq. 4.7.1 and relaxes the
+//!    chain to the force balance (§4.2–4.5).
+//! 3. Faces ([`crate::face`]): stage 1 by the oblique quadtree (§4.1.2);
+//!    stage 2 by damped dynamics with population control (§4.3–4.7),
+//!    bubbles held on the face through their (u,v) (§4.5); then
+//!    constrained Delaunay connection in (u,v). The faces of each volume
+//!    are then oriented outward.
+//! 4. Volumes ([`crate::volume`]): stage 1 on a lattice, stage 2, Delaunay
+//!    tetrahedralization and the tetrahedral passes.
 //!
-//! Bubbles of lower dimensions are fixed while the next dimension is packed.
+//! Bubbles of lower dimensions are fixed while the next dimension is packed,
+//! so each dimension sees the finished mesh of the ones below it as its
+//! boundary. The finished mesh passes [`crate::verify::verify`] before it
+//! leaves the engine: a mesh that is not valid is never returned.
+//!
+//! Why a loop of attempts ([`mesh_model`] around `mesh_once`): a face that
+//! cannot be given a valid mesh at the requested spacing usually can at a
+//! finer one, so a failed attempt names the faces and edges to refine
+//! ([`refine`]) and the whole model is meshed again; the report lists every
+//! face meshed finer than asked.
+//!
+//! The run tells [`Options::observer`] what it does ([`Event`]): the face
+//! and volume stages report stage 1 and each stage-2 step with borrowed
+//! snapshots of the bubbles; this module reports each entity finished and
+//! the passes of each volume (from its report, once the volume is done).
 
 pub mod refine;
 
@@ -31,15 +48,25 @@ pub use crate::options::{Event, ObserverFn, Options, Timings, VolumeLattice};
 /// What the run did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct Report {
+    /// The highest dimension meshed.
     pub dim: u8,
+    /// Stage 1 only (no stage 2).
     pub fast: bool,
+    /// The stage-2 integrator (none with `fast`).
     pub integrator: Option<Integrator>,
+    /// Nodes of the mesh.
     pub nodes: usize,
+    /// Line elements (edge segments).
     pub lines: usize,
+    /// Triangles.
     pub triangles: usize,
+    /// Tetrahedra.
     pub tetrahedra: usize,
+    /// Wall-clock seconds per phase.
     pub timings: Timings,
+    /// What was done on each face.
     pub faces: Vec<FaceReport>,
+    /// What was done in each volume.
     pub volumes: Vec<volume::VolumeReport>,
     /// Faces meshed with a spacing finer than requested because the
     /// requested one could not give them a valid mesh ([`refine`]).
