@@ -33,7 +33,9 @@ pub struct bm_mesh {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct bm_entity {
+    /// 0 vertex, 1 edge, 2 face, 3 volume.
     pub dim: i32,
+    /// The 0-based id among the entities of `dim`.
     pub id: u32,
 }
 
@@ -67,6 +69,7 @@ pub struct bm_options {
     pub max_steps: usize,
     /// Optional (NULL): called during the relaxation.
     pub progress: bm_progress_fn,
+    /// Passed to `progress` as its first argument.
     pub progress_user: *mut c_void,
 }
 

@@ -51,6 +51,8 @@ struct Cli {
     command: Command,
 }
 
+// parsed once per run: the size of `MeshArgs` costs nothing
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Mesh a STEP file (.step .stp) or a domain file (.toml) into a mesh
@@ -377,6 +379,9 @@ fn parse_spacing(text: &str, model: &Model) -> Result<Expr, CliError> {
     Ok(e)
 }
 
+/// A spacing, its one-line description and the plugins among its sources.
+type SpacingParts = (Box<dyn Spacing>, String, Vec<PluginSpacing>);
+
 /// The spacing the command line asks for: the --size expression, the
 /// curvature and view sources, combined by minimum or product and clamped
 /// to --d-min/--d-max. Returns it with a one-line description and the
@@ -385,7 +390,7 @@ fn build_spacing(
     a: &MeshArgs,
     size_text: &str,
     model: &Arc<Model>,
-) -> Result<(Box<dyn Spacing>, String, Vec<PluginSpacing>), CliError> {
+) -> Result<SpacingParts, CliError> {
     use bubblemesh_core::curvature::{Curvature, View};
     use bubblemesh_core::spacing::{Clamped, MinOf, ProductOf};
     let positive = |v: f64, what: &str| -> Result<f64, CliError> {

@@ -24,6 +24,7 @@
 //!   [`verify`]: the last check a mesh passes before it may be written.
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod bubbles;
 pub mod curvature;

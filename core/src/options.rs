@@ -133,7 +133,7 @@ pub enum VolumeLattice {
 }
 
 /// Engine options.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct Options {
     /// Highest dimension to mesh (default: the model's).
     pub dim: Option<u8>,
@@ -148,18 +148,6 @@ pub struct Options {
     /// progress bar, the animation of the bubbles settling, a C caller's
     /// progress callback.
     pub observer: Option<ObserverFn>,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            dim: None,
-            fast: false,
-            relax: RelaxSettings::default(),
-            volume_lattice: VolumeLattice::default(),
-            observer: None,
-        }
-    }
 }
 
 impl std::fmt::Debug for Options {

@@ -56,8 +56,11 @@ pub enum VizError {
 /// The output kinds this crate writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
+    /// An SVG picture.
     Svg,
+    /// A PNG picture.
     Png,
+    /// The viewer page.
     Html,
 }
 

@@ -133,7 +133,7 @@ struct Failed {
     edges: Vec<u32>,
 }
 
-impl From<MeshError> for Failed {
+impl From<MeshError> for Box<Failed> {
     fn from(error: MeshError) -> Self {
         /// The faces and edges whose refinement may cure `e`.
         fn culprits(e: &MeshError) -> (Vec<u32>, Vec<u32>) {
@@ -156,12 +156,12 @@ impl From<MeshError> for Failed {
             }
         }
         let (faces, edges) = culprits(&error);
-        Failed {
+        Box::new(Failed {
             error,
             faces,
             reasons: vec![],
             edges,
-        }
+        })
     }
 }
 
@@ -175,7 +175,7 @@ fn mesh_once(
     volume_spacing: &dyn Spacing,
     opts: &Options,
     refinement: &refine::Refinement,
-) -> Result<(Mesh, Report), Failed> {
+) -> Result<(Mesh, Report), Box<Failed>> {
     let model_dim = model.dim();
     let dim = opts.dim.unwrap_or(model_dim);
     if dim > model_dim {
@@ -328,12 +328,12 @@ fn mesh_once(
             let faces = failed.iter().map(|f| f.0).collect();
             let reasons = failed.iter().map(|f| f.1.to_string()).collect();
             let error = failed.swap_remove(0).1;
-            return Err(Failed {
+            return Err(Box::new(Failed {
                 error,
                 faces,
                 reasons,
                 edges: vec![],
-            });
+            }));
         }
     }
     // closed shells: every volume's face triangles outward (a face shared
@@ -451,7 +451,9 @@ fn tell_passes(opts: &Options, entity: EntityRef, r: &volume::VolumeReport) {
     if opts.observer.is_none() {
         return;
     }
-    let passes: [(&'static str, f64, &[(&'static str, f64)]); 4] = [
+    /// A pass: its name, seconds and counts.
+    type Pass<'a> = (&'static str, f64, &'a [(&'static str, f64)]);
+    let passes: [Pass; 4] = [
         ("odt", r.odt_s, &[("iterations", r.odt_iterations as f64)]),
         (
             "delaunay",
