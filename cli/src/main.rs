@@ -224,8 +224,8 @@ struct MeshArgs {
     #[command(flatten)]
     picture: PictureArgs,
     /// Write pictures of the bubbles settling into this directory
-    /// (frame_000.svg/.png, ...): stage 1, then stage 2 re-run with growing
-    /// step limits (costly: for small examples).
+    /// (frame_000.svg/.png, ...): stage 1, stage 2 after 1, 2, 4, ... steps
+    /// (recorded during the run), then the mesh written.
     #[arg(long)]
     frames: Option<PathBuf>,
     /// Write a self-contained page animating the bubbles settling (the

@@ -189,52 +189,117 @@ fn mesh_once(
         ))
         .into());
     }
-    let mut mesh = Mesh::default();
-    mesh.set_entities_from(model);
-    let mut report = Report {
-        dim,
-        fast: opts.fast,
-        integrator: (!opts.fast).then_some(opts.relax.integrator),
-        ..Default::default()
+    let mut a = Attempt {
+        model,
+        spacing,
+        opts,
+        mesh: Mesh::default(),
+        node_d: Vec::new(),
+        report: Report {
+            dim,
+            fast: opts.fast,
+            integrator: (!opts.fast).then_some(opts.relax.integrator),
+            ..Default::default()
+        },
     };
-    // node spacing at each node, for the fixed bubbles of the next dimension
-    let mut node_d: Vec<f64> = Vec::new();
+    a.mesh.set_entities_from(model);
 
     // 1. vertex bubbles
-    for (i, v) in model.vertices.iter().enumerate() {
-        let e = EntityRef::new(0, i as u32);
-        if !(v.point.x.is_finite() && v.point.y.is_finite() && v.point.z.is_finite()) {
-            return Err(MeshError::Invalid(format!(
-                "{} has a non-finite position",
-                model.describe(e)
-            ))
-            .into());
-        }
-        let d = spacing.spacing(&SpacingQuery {
-            point: v.point,
-            entity: e,
-            params: [0.0; 2],
-        });
-        node_d.push(check_spacing(d, v.point, e).map_err(|x| x.within(model.describe(e)))?);
-        mesh.nodes.push(Node {
-            pos: v.point,
-            entity: e,
-            params: [0.0; 2],
-        });
-    }
-
+    a.vertices()?;
     // 2. edges
     let t_edges = Instant::now();
-    let mut edge_nodes: Vec<Vec<u32>> = Vec::with_capacity(model.edges.len());
-    // vertex pairs joined by an edge meshed as one segment: a second such
-    // edge between the same vertices (two arcs of a circle, a line beside an
-    // arc, both shorter than the spacing) gets a middle node, or the two
-    // edges would share one mesh segment and their faces one mesh edge
-    let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
-    if dim >= 1 {
+    let edge_nodes = if dim >= 1 {
+        a.edges(refinement)?
+    } else {
+        Vec::new()
+    };
+    a.report.timings.edges_s = t_edges.elapsed().as_secs_f64();
+    // 3. faces
+    if dim >= 2 {
+        a.faces(&edge_nodes)?;
+    }
+    // closed shells: every volume's face triangles outward (a face shared
+    // by two volumes keeps the first volume's orientation)
+    if dim >= 3 {
+        // a face mesh the shells cannot be walked through (two faces joined
+        // across a chord, an edge in four triangles) is named, so that its
+        // faces can be refined, before the volume stage refuses the shell
+        crate::verify::verify_face_topology(model, &a.mesh).map_err(MeshError::Check)?;
+    }
+    if dim >= 2 {
+        orient_volume_faces(model, &mut a.mesh, dim >= 3)?;
+    }
+    // 4. volumes
+    if dim >= 3 {
+        a.volumes(volume_spacing)?;
+    }
+    let Attempt {
+        mesh, mut report, ..
+    } = a;
+    // never silently wrong: the mesh leaves the engine only after its check
+    crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
+    report.nodes = mesh.nodes.len();
+    report.lines = mesh.lines.len();
+    report.triangles = mesh.triangles.len();
+    report.tetrahedra = mesh.tetrahedra.len();
+    Ok((mesh, report))
+}
+
+/// The state of one attempt: what is meshed so far, dimension by
+/// dimension.
+struct Attempt<'a> {
+    model: &'a Model,
+    spacing: &'a dyn Spacing,
+    opts: &'a Options,
+    mesh: Mesh,
+    /// The node spacing at each node, for the fixed bubbles of the next
+    /// dimension.
+    node_d: Vec<f64>,
+    report: Report,
+}
+
+impl Attempt<'_> {
+    /// One fixed node per model vertex.
+    fn vertices(&mut self) -> Result<(), MeshError> {
+        let model = self.model;
+        for (i, v) in model.vertices.iter().enumerate() {
+            let e = EntityRef::new(0, i as u32);
+            if !(v.point.x.is_finite() && v.point.y.is_finite() && v.point.z.is_finite()) {
+                return Err(MeshError::Invalid(format!(
+                    "{} has a non-finite position",
+                    model.describe(e)
+                )));
+            }
+            let d = self.spacing.spacing(&SpacingQuery {
+                point: v.point,
+                entity: e,
+                params: [0.0; 2],
+            });
+            self.node_d
+                .push(check_spacing(d, v.point, e).map_err(|x| x.within(model.describe(e)))?);
+            self.mesh.nodes.push(Node {
+                pos: v.point,
+                entity: e,
+                params: [0.0; 2],
+            });
+        }
+        Ok(())
+    }
+
+    /// Meshes every edge; returns the node ids along each.
+    fn edges(&mut self, refinement: &refine::Refinement) -> Result<Vec<Vec<u32>>, MeshError> {
+        let (model, spacing, opts) = (self.model, self.spacing, self.opts);
+        let mesh = &mut self.mesh;
+        let node_d = &mut self.node_d;
+        let mut edge_nodes: Vec<Vec<u32>> = Vec::with_capacity(model.edges.len());
+        // vertex pairs joined by an edge meshed as one segment: a second such
+        // edge between the same vertices (two arcs of a circle, a line beside an
+        // arc, both shorter than the spacing) gets a middle node, or the two
+        // edges would share one mesh segment and their faces one mesh edge
+        let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
-            let mut ids = mesh_edge(model, ei, spacing, opts.fast, &mut mesh, &mut node_d)
+            let mut ids = mesh_edge(model, ei, spacing, opts.fast, mesh, node_d)
                 .map_err(|x| x.within(model.describe(e)))?;
             // at least the refinement's segments (a refined edge shorter
             // than its spacing), and two where another one-segment edge
@@ -277,14 +342,17 @@ fn mesh_once(
             edge_nodes.push(ids);
             opts.tell(&Event::Done {
                 entity: e,
-                mesh: &mesh,
+                mesh: &*mesh,
             });
         }
+        Ok(edge_nodes)
     }
-    report.timings.edges_s = t_edges.elapsed().as_secs_f64();
 
-    // 3. faces
-    if dim >= 2 {
+    /// Meshes every face. A face that fails does not stop the others, so
+    /// that one refinement round covers every face that needs it; the
+    /// error names them all.
+    fn faces(&mut self, edge_nodes: &[Vec<u32>]) -> Result<(), Box<Failed>> {
+        let (model, spacing, opts) = (self.model, self.spacing, self.opts);
         let mut failed: Vec<(u32, MeshError)> = Vec::new();
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
@@ -294,10 +362,10 @@ fn mesh_once(
                     fi,
                     spacing,
                     opts,
-                    &edge_nodes,
-                    &mut mesh,
-                    &node_d,
-                    &mut report.timings,
+                    edge_nodes,
+                    &mut self.mesh,
+                    &self.node_d,
+                    &mut self.report.timings,
                     grow,
                 )
             };
@@ -310,10 +378,10 @@ fn mesh_once(
                 r => r,
             } {
                 Ok(fr) => {
-                    report.faces.push(fr);
+                    self.report.faces.push(fr);
                     opts.tell(&Event::Done {
                         entity: e,
-                        mesh: &mesh,
+                        mesh: &self.mesh,
                     });
                 }
                 Err(err @ (MeshError::BadSpacing { .. } | MeshError::TooManyBubbles { .. })) => {
@@ -335,29 +403,21 @@ fn mesh_once(
                 edges: vec![],
             }));
         }
-    }
-    // closed shells: every volume's face triangles outward (a face shared
-    // by two volumes keeps the first volume's orientation)
-    if dim >= 3 {
-        // a face mesh the shells cannot be walked through (two faces joined
-        // across a chord, an edge in four triangles) is named, so that its
-        // faces can be refined, before the volume stage refuses the shell
-        crate::verify::verify_face_topology(model, &mesh).map_err(MeshError::Check)?;
-    }
-    if dim >= 2 {
-        orient_volume_faces(model, &mut mesh, dim >= 3)?;
+        Ok(())
     }
 
-    // 4. volumes
-    if dim >= 3 {
+    /// Meshes every volume, packed with `volume_spacing` (see
+    /// [`mesh_once`]).
+    fn volumes(&mut self, volume_spacing: &dyn Spacing) -> Result<(), MeshError> {
+        let (model, opts) = (self.model, self.opts);
         // the face nodes are the fixed bubbles of the volumes: their spacing
-        for n in &mesh.nodes[node_d.len()..] {
-            let d = spacing.spacing(&SpacingQuery {
+        for n in &self.mesh.nodes[self.node_d.len()..] {
+            let d = self.spacing.spacing(&SpacingQuery {
                 point: n.pos,
                 entity: n.entity,
                 params: n.params,
             });
-            node_d.push(check_spacing(d, n.pos, n.entity)?);
+            self.node_d.push(check_spacing(d, n.pos, n.entity)?);
         }
         for vi in 0..model.volumes.len() {
             let e = EntityRef::new(3, vi as u32);
@@ -366,26 +426,20 @@ fn mesh_once(
                 vi,
                 volume_spacing,
                 opts,
-                &mut mesh,
-                &node_d,
-                &mut report.timings,
+                &mut self.mesh,
+                &self.node_d,
+                &mut self.report.timings,
             )
             .map_err(|x| x.within(model.describe(e)))?;
             tell_passes(opts, e, &vr);
-            report.volumes.push(vr);
+            self.report.volumes.push(vr);
             opts.tell(&Event::Done {
                 entity: e,
-                mesh: &mesh,
+                mesh: &self.mesh,
             });
         }
+        Ok(())
     }
-    // never silently wrong: the mesh leaves the engine only after its check
-    crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
-    report.nodes = mesh.nodes.len();
-    report.lines = mesh.lines.len();
-    report.triangles = mesh.triangles.len();
-    report.tetrahedra = mesh.tetrahedra.len();
-    Ok((mesh, report))
 }
 
 /// Orients the triangles of each volume's faces outward (the first volume
