@@ -148,13 +148,16 @@ typedef struct bm_options {
   size_t max_steps;
   // Optional (NULL): called during the relaxation.
   bm_progress_fn progress;
+  // Passed to `progress` as its first argument.
   void *progress_user;
 } bm_options;
 
 // A model entity: `dim` 0 vertex, 1 edge, 2 face, 3 volume; `id` its
 // 0-based id in the model.
 typedef struct bm_entity {
+  // 0 vertex, 1 edge, 2 face, 3 volume.
   int32_t dim;
+  // The 0-based id among the entities of `dim`.
   uint32_t id;
 } bm_entity;
 
@@ -215,8 +218,11 @@ typedef struct bm_surface_callbacks {
 typedef struct bm_surface_info {
   // Parameter domain [u0, u1] x [v0, v1], finite, u0 < u1, v0 < v1.
   double u0;
+  // The end of the u domain.
   double u1;
+  // The start of the v domain.
   double v0;
+  // The end of the v domain.
   double v1;
   // Period in u (a sphere's or cylinder's angle: 2*pi), 0 when u is open.
   // A periodic parameter is kept in [u0, u0 + period_u).
@@ -226,6 +232,7 @@ typedef struct bm_surface_info {
   // `singular_count` points (x, y, z triples) where Su × Sv vanishes (a
   // sphere's poles, a cone's apex); NULL when `singular_count` is 0.
   const double *singular_points;
+  // How many points `singular_points` holds.
   size_t singular_count;
 } bm_surface_info;
 
@@ -236,6 +243,7 @@ typedef int (*bm_volume_contains_fn)(void *user, const double *xyz, int *inside)
 // The callbacks of one volume. `contains` is optional (NULL: the engine
 // decides in/out from the watertight boundary).
 typedef struct bm_volume_callbacks {
+  // Whether a point is inside the volume.
   bm_volume_contains_fn contains;
 } bm_volume_callbacks;
 

@@ -89,6 +89,7 @@ pub type bm_volume_contains_fn =
 #[repr(C)]
 #[derive(Clone, Copy)]
 pub struct bm_volume_callbacks {
+    /// Whether a point is inside the volume.
     pub contains: bm_volume_contains_fn,
 }
 

@@ -25,6 +25,7 @@
 //! the parameters.
 
 #![allow(clippy::missing_safety_doc)]
+#![warn(missing_docs)]
 
 pub mod error;
 pub mod geometry;

@@ -5,7 +5,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 use std::sync::Arc;
 
-use bubblemesh_core::engine::{MeshError, Options, Progress, Report};
+use bubblemesh_core::engine::{Event, MeshError, Options, Report};
 use bubblemesh_core::model::EntityRef;
 use bubblemesh_core::spacing::Constant;
 use bubblemesh_core::{mesh_model, Mesh, Model};
@@ -33,7 +33,9 @@ pub struct bm_mesh {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct bm_entity {
+    /// 0 vertex, 1 edge, 2 face, 3 volume.
     pub dim: i32,
+    /// The 0-based id among the entities of `dim`.
     pub id: u32,
 }
 
@@ -67,6 +69,7 @@ pub struct bm_options {
     pub max_steps: usize,
     /// Optional (NULL): called during the relaxation.
     pub progress: bm_progress_fn,
+    /// Passed to `progress` as its first argument.
     pub progress_user: *mut c_void,
 }
 
@@ -160,16 +163,27 @@ fn engine_options(opts: &bm_options, dim: Option<u8>) -> Options {
     }
     if let Some(f) = opts.progress {
         let user = UserPtr(opts.progress_user);
-        o.progress = Some(Arc::new(move |p: Progress| {
-            let phase = CString::new(p.phase).unwrap_or_default();
+        // each stage-2 step is a "relax" progress report (the engine's
+        // other events are not part of the C interface)
+        o.observer = Some(Arc::new(move |e: &Event<'_>| {
+            let &Event::Step {
+                entity,
+                step,
+                max_steps,
+                ..
+            } = e
+            else {
+                return;
+            };
+            let phase = CString::new("relax").unwrap_or_default();
             let rc = unsafe {
                 f(
                     user.get(),
                     phase.as_ptr(),
-                    p.entity.dim as c_int,
-                    p.entity.id,
-                    p.step,
-                    p.max_steps,
+                    entity.dim as c_int,
+                    entity.id,
+                    step,
+                    max_steps,
                 )
             };
             if rc != 0 {
@@ -178,7 +192,7 @@ fn engine_options(opts: &bm_options, dim: Option<u8>) -> Options {
                     format!(
                         "cancelled by the progress callback (it returned {rc}) at step {} of {} \
                          on {}",
-                        p.step, p.max_steps, p.entity
+                        step, max_steps, entity
                     ),
                 ));
             }

@@ -67,8 +67,11 @@ pub struct bm_edge_use {
 pub struct bm_surface_info {
     /// Parameter domain [u0, u1] x [v0, v1], finite, u0 < u1, v0 < v1.
     pub u0: f64,
+    /// The end of the u domain.
     pub u1: f64,
+    /// The start of the v domain.
     pub v0: f64,
+    /// The end of the v domain.
     pub v1: f64,
     /// Period in u (a sphere's or cylinder's angle: 2*pi), 0 when u is open.
     /// A periodic parameter is kept in [u0, u0 + period_u).
@@ -78,6 +81,7 @@ pub struct bm_surface_info {
     /// `singular_count` points (x, y, z triples) where Su × Sv vanishes (a
     /// sphere's poles, a cone's apex); NULL when `singular_count` is 0.
     pub singular_points: *const f64,
+    /// How many points `singular_points` holds.
     pub singular_count: usize,
 }
 

@@ -103,6 +103,9 @@ pub(crate) struct PluginSource {
     args: Vec<(String, String)>,
 }
 
+// a handle holds one spacing for its lifetime: the size of the callback
+// variant is paid once per handle
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Kind {
     Expr(Expr),
     Callback(CallbackSpacing),

@@ -396,13 +396,10 @@ fn tilted_plane_with_an_embedded_point() {
         let n = [1.0, 1.0, 1.0];
         let c = [1.0 / 3.0; 3];
         let e1 = [1.0 / 2f64.sqrt(), -1.0 / 2f64.sqrt(), 0.0];
-        let e2 = {
-            let x = cross(
-                [n[0] / 3f64.sqrt(), n[1] / 3f64.sqrt(), n[2] / 3f64.sqrt()],
-                e1,
-            );
-            x
-        };
+        let e2 = cross(
+            [n[0] / 3f64.sqrt(), n[1] / 3f64.sqrt(), n[2] / 3f64.sqrt()],
+            e1,
+        );
         let at = |u: f64, v: f64| [0, 1, 2].map(|k| c[k] + u * e1[k] + v * e2[k]);
         let m = new_model();
         let pts = [at(-0.5, -0.5), at(0.5, -0.5), at(0.5, 0.5), at(-0.5, 0.5)];

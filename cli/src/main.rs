@@ -18,12 +18,17 @@
 //! Exit status: 0 on success, 1 on a failure (with a message naming the file,
 //! the entity and the reason), 2 on a usage error.
 
+#![forbid(unsafe_code)]
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Instant;
 
-use bubblemesh_core::engine::{Integrator, Progress, VolumeLattice};
+mod error;
+mod frames;
+
+use bubblemesh_core::engine::{Event, Integrator, VolumeLattice};
 use bubblemesh_core::quality::{self, QualityReport};
 use bubblemesh_core::spacing::Expr;
 use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, P3, V3};
@@ -32,6 +37,8 @@ use bubblemesh_plugin_host::{PluginSpacing, PluginSpec};
 use bubblemesh_viz::geometry::{node_spacing, node_spacing_from_edges, Measures};
 use bubblemesh_viz::{ColorBy, Kind, PictureOptions, ViewerOptions};
 use clap::{Args, Parser, Subcommand, ValueEnum};
+
+use error::CliError;
 
 #[derive(Parser)]
 #[command(
@@ -44,6 +51,8 @@ struct Cli {
     command: Command,
 }
 
+// parsed once per run: the size of `MeshArgs` costs nothing
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Mesh a STEP file (.step .stp) or a domain file (.toml) into a mesh
@@ -93,31 +102,33 @@ fn max_threads() -> usize {
     cores.saturating_mul(4).clamp(64, 1024)
 }
 
-fn parse_threads(s: &str) -> Result<usize, String> {
+/// Parses `--threads`.
+fn parse_threads(s: &str) -> Result<usize, CliError> {
     let max = max_threads();
     let n: u64 = s
         .trim()
         .parse()
         .map_err(|_| format!("'{s}' is not a whole number of threads"))?;
     if n == 0 || n > max as u64 {
-        return Err(format!(
+        return Err(CliError::Message(format!(
             "{n} is not in 1..={max} (4 per core, at least 64, at most 1024)"
-        ));
+        )));
     }
     Ok(n as usize)
 }
 
 /// The threads of a run: `--threads`, else one per core.
-fn thread_count(given: Option<usize>) -> Result<usize, String> {
-    Ok(given.unwrap_or_else(|| {
+fn thread_count(given: Option<usize>) -> usize {
+    given.unwrap_or_else(|| {
         std::thread::available_parallelism()
             .map_or(1, |n| n.get())
             .min(max_threads())
-    }))
+    })
 }
 
-fn parse_view_arg(s: &str) -> Result<V3, String> {
-    bubblemesh_viz::view::parse_view(s)
+/// Parses `--view`.
+fn parse_view_arg(s: &str) -> Result<V3, CliError> {
+    Ok(bubblemesh_viz::view::parse_view(s)?)
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -213,8 +224,8 @@ struct MeshArgs {
     #[command(flatten)]
     picture: PictureArgs,
     /// Write pictures of the bubbles settling into this directory
-    /// (frame_000.svg/.png, ...): stage 1, then stage 2 re-run with growing
-    /// step limits (costly: for small examples).
+    /// (frame_000.svg/.png, ...): stage 1, stage 2 after 1, 2, 4, ... steps
+    /// (recorded during the run), then the mesh written.
     #[arg(long)]
     frames: Option<PathBuf>,
     /// Write a self-contained page animating the bubbles settling (the
@@ -273,7 +284,7 @@ fn main() -> ExitCode {
 
 /// The plugins to load: each --plugin with the --plugin-arg after it (clap
 /// keeps the positions), then those of --plugin-config.
-fn plugin_specs(matches: &clap::ArgMatches, a: &MeshArgs) -> Result<Vec<PluginSpec>, String> {
+fn plugin_specs(matches: &clap::ArgMatches, a: &MeshArgs) -> Result<Vec<PluginSpec>, CliError> {
     let Some(m) = matches.subcommand_matches("mesh") else {
         return Ok(Vec::new());
     };
@@ -323,26 +334,23 @@ fn step_summary(info: &bubblemesh_truck::StepInfo) -> serde_json::Value {
 
 /// Reads the input model, choosing the reader by extension; for STEP files
 /// also what the reader found ([`step_summary`]).
-fn read_model(path: &Path) -> Result<(Model, Option<serde_json::Value>), String> {
+fn read_model(path: &Path) -> Result<(Model, Option<serde_json::Value>), CliError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     match ext.as_str() {
-        "toml" => bubblemesh_analytic::read_domain(path)
-            .map(|m| (m, None))
-            .map_err(|e| e.to_string()),
-        "step" | "stp" => bubblemesh_truck::read_step(path)
-            .map(|s| {
-                let summary = step_summary(&s.info);
-                (s.model, Some(summary))
-            })
-            .map_err(|e| e.to_string()),
-        _ => Err(format!(
+        "toml" => Ok((bubblemesh_analytic::read_domain(path)?, None)),
+        "step" | "stp" => {
+            let s = bubblemesh_truck::read_step(path)?;
+            let summary = step_summary(&s.info);
+            Ok((s.model, Some(summary)))
+        }
+        _ => Err(CliError::Message(format!(
             "{}: unknown input type '.{ext}'; expected a domain file (.toml) or STEP (.step, .stp)",
             path.display()
-        )),
+        ))),
     }
 }
 
@@ -356,8 +364,8 @@ fn significant(x: f64, digits: usize) -> String {
 }
 
 /// Parses the spacing expression and checks it at sample points of the model.
-fn parse_spacing(text: &str, model: &Model) -> Result<Expr, String> {
-    let e = Expr::parse(text).map_err(|e| e.to_string())?;
+fn parse_spacing(text: &str, model: &Model) -> Result<Expr, CliError> {
+    let e = Expr::parse(text)?;
     let mut samples: Vec<P3> = model.vertices.iter().map(|v| v.point).collect();
     for edge in &model.edges {
         for k in 0..=8 {
@@ -367,9 +375,12 @@ fn parse_spacing(text: &str, model: &Model) -> Result<Expr, String> {
             );
         }
     }
-    e.check_positive(&samples).map_err(|e| e.to_string())?;
+    e.check_positive(&samples)?;
     Ok(e)
 }
+
+/// A spacing, its one-line description and the plugins among its sources.
+type SpacingParts = (Box<dyn Spacing>, String, Vec<PluginSpacing>);
 
 /// The spacing the command line asks for: the --size expression, the
 /// curvature and view sources, combined by minimum or product and clamped
@@ -379,21 +390,25 @@ fn build_spacing(
     a: &MeshArgs,
     size_text: &str,
     model: &Arc<Model>,
-) -> Result<(Box<dyn Spacing>, String, Vec<PluginSpacing>), String> {
+) -> Result<SpacingParts, CliError> {
     use bubblemesh_core::curvature::{Curvature, View};
     use bubblemesh_core::spacing::{Clamped, MinOf, ProductOf};
-    let positive = |v: f64, what: &str| -> Result<f64, String> {
+    let positive = |v: f64, what: &str| -> Result<f64, CliError> {
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
-            Err(format!("{what} must be a positive number (got {v})"))
+            Err(CliError::Message(format!(
+                "{what} must be a positive number (got {v})"
+            )))
         }
     };
     let d_min = a.d_min.map(|v| positive(v, "--d-min")).transpose()?;
     let d_max = a.d_max.map(|v| positive(v, "--d-max")).transpose()?;
     if let (Some(lo), Some(hi)) = (d_min, d_max) {
         if lo > hi {
-            return Err(format!("--d-min {lo} is larger than --d-max {hi}"));
+            return Err(CliError::Message(format!(
+                "--d-min {lo} is larger than --d-max {hi}"
+            )));
         }
     }
     let mut sources: Vec<Box<dyn Spacing>> = Vec::new();
@@ -414,11 +429,15 @@ fn build_spacing(
             .split(',')
             .map(|x| x.trim().parse::<f64>())
             .collect::<Result<_, _>>()
-            .map_err(|_| format!("--view-spacing '{v}': expected four numbers X,Y,Z,A"))?;
+            .map_err(|_| {
+                CliError::Message(format!(
+                    "--view-spacing '{v}': expected four numbers X,Y,Z,A"
+                ))
+            })?;
         if parts.len() != 4 || parts.iter().any(|x| !x.is_finite()) {
-            return Err(format!(
+            return Err(CliError::Message(format!(
                 "--view-spacing '{v}': expected four numbers X,Y,Z,A"
-            ));
+            )));
         }
         let factor = positive(parts[3], "the --view-spacing factor A")?;
         let lo = d_min.unwrap_or(f64::MIN_POSITIVE);
@@ -436,7 +455,7 @@ fn build_spacing(
     }
     let mut plugins = Vec::new();
     for spec in &a.plugin_specs {
-        let p = PluginSpacing::load(spec, model.clone()).map_err(|e| e.to_string())?;
+        let p = PluginSpacing::load(spec, model.clone())?;
         words.push(format!(
             "plugin '{}' ({})",
             p.plugin().name(),
@@ -468,60 +487,34 @@ fn build_spacing(
     Ok((bounded, format!("spacing {joined}"), plugins))
 }
 
-fn run_mesh(a: MeshArgs) -> Result<(), String> {
+/// `bubblemesh mesh`: checks the outputs, reads the model, builds the
+/// spacing, meshes, then stages and writes every output at once.
+fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     let t0 = Instant::now();
     let kind = output_kind(&a.output)?;
     if let Some(p) = &a.animate {
         if Kind::from_path(p) != Some(Kind::Html) {
-            return Err(format!(
+            return Err(CliError::Message(format!(
                 "{}: --animate writes a page: use .html",
                 p.display()
-            ));
+            )));
         }
     }
-    let threads = thread_count(a.threads)?;
+    let threads = thread_count(a.threads);
     // every output is checked against the inputs and the other outputs, and
     // its directory made, before meshing; `out` removes what this run made
     // if it fails
-    let mut inputs: Vec<&Path> = vec![&a.input];
-    inputs.extend(a.plugin_specs.iter().map(|s| s.path.as_path()));
-    inputs.extend(a.plugin_config.as_deref());
-    let mut outputs = vec![file_output("-o", &a.output)];
-    outputs.extend(a.report.as_deref().map(|p| file_output("--report", p)));
-    outputs.extend(a.picture.plots.as_deref().map(|p| dir_output("--plots", p)));
-    outputs.extend(a.frames.as_deref().map(|p| dir_output("--frames", p)));
-    outputs.extend(a.animate.as_deref().map(|p| file_output("--animate", p)));
-    let mut out = prepare_outputs(&inputs, &outputs)?;
+    let mut out = prepare_mesh_outputs(&a)?;
     let (model, step_info) = read_model(&a.input)?;
     if let Some(d) = a.dim {
         if d == 0 || d > 3 {
-            return Err(format!("--dim {d}: the dimension must be 1, 2 or 3"));
+            return Err(CliError::Message(format!(
+                "--dim {d}: the dimension must be 1, 2 or 3"
+            )));
         }
     }
     let model = Arc::new(model);
-    let others_given =
-        a.curvature.is_some() || a.view_spacing.is_some() || !a.plugin_specs.is_empty();
-    let size_text = match &a.size {
-        Some(s) => s.clone(),
-        None if others_given => String::new(),
-        None => {
-            let diag = model.size();
-            if !(diag > 0.0) {
-                return Err(format!(
-                    "{}: the model is empty or has zero size",
-                    a.input.display()
-                ));
-            }
-            let d = diag / 40.0;
-            if !a.quiet {
-                eprintln!(
-                    "no --size given: using d = {} (1/40 of the bounding-box diagonal)",
-                    significant(d, 6)
-                );
-            }
-            format!("{d}")
-        }
-    };
+    let size_text = size_text(&a, &model)?;
     let (spacing, spacing_note, plugins) = build_spacing(&a, &size_text, &model)?;
     // a plugin's failure (refusal, panic, NaN, d <= 0) is the cause of any
     // meshing error, and must fail the run even when a minimum hid it
@@ -529,57 +522,15 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
         plugins
             .iter()
             .find_map(|p| p.failure())
-            .map(|f| format!("{}: {f}", a.input.display()))
+            .map(|f| CliError::Message(format!("{}: {f}", a.input.display())))
     };
     let spacing: &dyn Spacing = spacing.as_ref();
-    // a STEP solid meshes its boundary surfaces by default (fast, and what
-    // a surface-mesh user expects); --dim 3 fills its solids with tetrahedra
-    let is_step = a
-        .input
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("step") || e.eq_ignore_ascii_case("stp"));
-    let mut opts = Options {
-        dim: a.dim.or((is_step && model.dim() == 3).then_some(2)),
-        fast: a.fast,
-        volume_lattice: if a.fcc {
-            VolumeLattice::Fcc
-        } else {
-            VolumeLattice::Auto
-        },
-        ..Default::default()
-    };
-    opts.relax.integrator = match a.integrator {
-        IntegratorArg::Euler => Integrator::Euler,
-        IntegratorArg::Rk4 => Integrator::Rk4,
-    };
-    opts.relax.max_steps = a.max_steps.max(1);
-    opts.relax.parallel = threads > 1;
-    // every rayon loop (relaxation, volume polish) runs on this pool, so
-    // `--threads 1` is single-threaded throughout; the global pool is built
-    // once per process (here, its only builder)
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build_global()
-        .map_err(|e| format!("--threads {threads}: cannot start the threads: {e}"))?;
-    let bar = progress_bar(a.quiet, &model);
-    if let Some(bar) = &bar {
-        let b = bar.clone();
-        opts.progress = Some(Arc::new(move |p: Progress| {
-            b.set_length(p.max_steps as u64);
-            b.set_position(p.step as u64);
-            b.set_message(format!("stage 2 on {}", p.entity));
-        }));
-    }
-    let what = a.input.display().to_string();
-    let meshed = mesh_model(&model, spacing, &opts);
+    let opts = engine_options(&a, &model, threads)?;
+    let meshed = mesh_observed(&a, &model, spacing, opts);
     if let Some(f) = plugin_failure() {
         return Err(f);
     }
-    let (mesh, report) = meshed.map_err(|e| format!("{what}: {e}"))?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    let (mesh, report, recorded) = meshed?;
     let t_mesh = t0.elapsed().as_secs_f64();
     let q = quality::analyse(&mesh, Some(spacing));
     if let Some(f) = plugin_failure() {
@@ -604,32 +555,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
     let write_s = t_write.elapsed().as_secs_f64();
     let mut said: Vec<String> = Vec::new();
     if !a.quiet {
-        let lattice = if report.timings.lattice_s > 0.0005 {
-            format!(", conformal lattice {:.3} s", report.timings.lattice_s)
-        } else {
-            String::new()
-        };
-        said.push(format!(
-            "meshed {} in {:.3} s (stage 1 {:.3} s, stage 2 {:.3} s, connection {:.3} s{lattice}); wrote {} in {:.3} s",
-            a.input.display(),
-            report.timings.total_s,
-            report.timings.stage1_s,
-            report.timings.stage2_s,
-            report.timings.connect_s,
-            a.output.display(),
-            write_s
-        ));
-        if let Some(u) = step_info
-            .as_ref()
-            .and_then(|i| i.get("length_unit"))
-            .filter(|u| !u.is_null())
-        {
-            said.push(format!(
-                "length unit of the file: {} ({} m); coordinates and --size are in it",
-                u["name"].as_str().unwrap_or("?"),
-                u["metres"]
-            ));
-        }
+        said.extend(summary(&a, &report, step_info.as_ref(), write_s));
         said.push(q.table());
     }
     if let Some(path) = &a.report {
@@ -645,7 +571,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             "time_mesh_s": t_mesh,
             "time_write_s": write_s,
         });
-        let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
+        let text = serde_json::to_string_pretty(&json)?;
         stage_bytes(&mut out, path, text.as_bytes())?;
     }
     if let Some(dir) = &a.picture.plots {
@@ -662,54 +588,233 @@ fn run_mesh(a: MeshArgs) -> Result<(), String> {
             said.push(format!("wrote plots into {}", dir.display()));
         }
     }
-    if a.frames.is_some() || a.animate.is_some() {
-        let frames = settle_frames(&model, spacing, &opts, &mesh, &report, a.quiet)?;
-        let pictures = frame_pictures(&model, spacing, &a.picture, &frames)?;
-        if let Some(dir) = &a.frames {
-            for (k, (f, svg)) in frames.iter().zip(&pictures).enumerate() {
-                stage_bytes(
-                    &mut out,
-                    &dir.join(format!("frame_{k:03}.svg")),
-                    svg.svg.as_bytes(),
-                )?;
-                let png =
-                    bubblemesh_viz::png(&f.mesh, &frame_options(&model, spacing, &a.picture, f))
-                        .map_err(|e| e.to_string())?;
-                stage_bytes(&mut out, &dir.join(format!("frame_{k:03}.png")), &png)?;
-            }
-            if !a.quiet {
-                said.push(format!(
-                    "wrote {} frames into {}",
-                    frames.len(),
-                    dir.display()
-                ));
-            }
-        }
-        if let Some(path) = &a.animate {
-            let page = bubblemesh_viz::anim::page(
-                &format!("{title}: the bubbles settling"),
-                &[
-                    spacing_note.clone(),
-                    "Frame 1 is stage 1 (hierarchical placement); frame k > 1 is a run whose stage 2 \
-                     stopped after the step limit shown (population control on the same schedule as \
-                     the full run), connected and improved as usual; the last frame is the mesh written."
-                        .to_string(),
-                ],
-                &pictures,
-            );
-            stage_bytes(&mut out, path, page.as_bytes())?;
-            if !a.quiet {
-                said.push(format!("wrote the animation {}", path.display()));
-            }
-        }
+    if let Some(recorded) = recorded {
+        let frames = frames::settle_frames(&recorded, spacing, &mesh, &report, a.max_steps.max(1));
+        let notes = [spacing_note.clone(), ANIMATION_NOTE.to_string()];
+        said.extend(stage_frames(
+            &mut out, &a, &model, spacing, &title, &notes, &frames,
+        )?);
     }
-    out.commit().map_err(|e| format!("cannot write: {e}"))?;
+    out.commit().map_err(CliError::Write)?;
     for line in said {
         eprintln!("{line}");
     }
     warn_refined(&model, &report);
     warn_low_quality(&low);
     Ok(())
+}
+
+/// Checks the outputs of `mesh` against its inputs and each other and
+/// makes their directories ([`prepare_outputs`]).
+fn prepare_mesh_outputs(a: &MeshArgs) -> Result<OutputSet, CliError> {
+    let mut inputs: Vec<&Path> = vec![&a.input];
+    inputs.extend(a.plugin_specs.iter().map(|s| s.path.as_path()));
+    inputs.extend(a.plugin_config.as_deref());
+    let mut outputs = vec![file_output("-o", &a.output)];
+    outputs.extend(a.report.as_deref().map(|p| file_output("--report", p)));
+    outputs.extend(a.picture.plots.as_deref().map(|p| dir_output("--plots", p)));
+    outputs.extend(a.frames.as_deref().map(|p| dir_output("--frames", p)));
+    outputs.extend(a.animate.as_deref().map(|p| file_output("--animate", p)));
+    prepare_outputs(&inputs, &outputs)
+}
+
+/// The --size expression; without one (and no other spacing source) 1/40
+/// of the model's bounding-box diagonal, said on stderr.
+fn size_text(a: &MeshArgs, model: &Model) -> Result<String, CliError> {
+    let others_given =
+        a.curvature.is_some() || a.view_spacing.is_some() || !a.plugin_specs.is_empty();
+    Ok(match &a.size {
+        Some(s) => s.clone(),
+        None if others_given => String::new(),
+        None => {
+            let diag = model.size();
+            if !(diag > 0.0) {
+                return Err(CliError::Message(format!(
+                    "{}: the model is empty or has zero size",
+                    a.input.display()
+                )));
+            }
+            let d = diag / 40.0;
+            if !a.quiet {
+                eprintln!(
+                    "no --size given: using d = {} (1/40 of the bounding-box diagonal)",
+                    significant(d, 6)
+                );
+            }
+            format!("{d}")
+        }
+    })
+}
+
+/// The engine's options of `mesh`; starts the `threads` every rayon loop
+/// (relaxation, volume polish) runs on, so that `--threads 1` is
+/// single-threaded throughout.
+fn engine_options(a: &MeshArgs, model: &Model, threads: usize) -> Result<Options, CliError> {
+    // a STEP solid meshes its boundary surfaces by default (fast, and what
+    // a surface-mesh user expects); --dim 3 fills its solids with tetrahedra
+    let is_step = a
+        .input
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("step") || e.eq_ignore_ascii_case("stp"));
+    let mut opts = Options {
+        dim: a.dim.or((is_step && model.dim() == 3).then_some(2)),
+        fast: a.fast,
+        volume_lattice: if a.fcc {
+            VolumeLattice::Fcc
+        } else {
+            VolumeLattice::Auto
+        },
+        ..Default::default()
+    };
+    opts.relax.integrator = match a.integrator {
+        IntegratorArg::Euler => Integrator::Euler,
+        IntegratorArg::Rk4 => Integrator::Rk4,
+    };
+    opts.relax.max_steps = a.max_steps.max(1);
+    opts.relax.parallel = threads > 1;
+    // the global pool is built once per process (here, its only builder)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|source| CliError::Threads { threads, source })?;
+    Ok(opts)
+}
+
+/// Meshes `model` in one run observed by the progress bar and, with
+/// `--frames` or `--animate`, by the recorder of the bubbles settling
+/// (returned with the mesh).
+fn mesh_observed(
+    a: &MeshArgs,
+    model: &Model,
+    spacing: &dyn Spacing,
+    mut opts: Options,
+) -> Result<(Mesh, Report, Option<frames::Recorder>), CliError> {
+    let bar = progress_bar(a.quiet, model);
+    let recorder = (a.frames.is_some() || a.animate.is_some())
+        .then(|| Arc::new(std::sync::Mutex::new(frames::Recorder::default())));
+    if bar.is_some() || recorder.is_some() {
+        let b = bar.clone();
+        let r = recorder.clone();
+        opts.observer = Some(Arc::new(move |e: &Event<'_>| {
+            if let (
+                Some(b),
+                &Event::Step {
+                    entity,
+                    step,
+                    max_steps,
+                    ..
+                },
+            ) = (&b, e)
+            {
+                b.set_length(max_steps as u64);
+                b.set_position(step as u64);
+                b.set_message(format!("stage 2 on {entity}"));
+            }
+            if let Some(r) = &r {
+                r.lock().unwrap_or_else(|p| p.into_inner()).observe(e);
+            }
+        }));
+    }
+    let meshed = mesh_model(model, spacing, &opts);
+    drop(opts);
+    let (mesh, report) = meshed.map_err(|source| CliError::Mesh {
+        input: a.input.display().to_string(),
+        source,
+    })?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let recorded = recorder.map(|r| {
+        Arc::try_unwrap(r)
+            .map(|m| m.into_inner().unwrap_or_else(|p| p.into_inner()))
+            .unwrap_or_default()
+    });
+    Ok((mesh, report, recorded))
+}
+
+/// What `mesh` says on stderr about the run (unless --quiet), before the
+/// quality table.
+fn summary(
+    a: &MeshArgs,
+    report: &Report,
+    step_info: Option<&serde_json::Value>,
+    write_s: f64,
+) -> Vec<String> {
+    let mut said = Vec::new();
+    let lattice = if report.timings.lattice_s > 0.0005 {
+        format!(", conformal lattice {:.3} s", report.timings.lattice_s)
+    } else {
+        String::new()
+    };
+    said.push(format!(
+        "meshed {} in {:.3} s (stage 1 {:.3} s, stage 2 {:.3} s, connection {:.3} s{lattice}); wrote {} in {:.3} s",
+        a.input.display(),
+        report.timings.total_s,
+        report.timings.stage1_s,
+        report.timings.stage2_s,
+        report.timings.connect_s,
+        a.output.display(),
+        write_s
+    ));
+    if let Some(u) = step_info
+        .and_then(|i| i.get("length_unit"))
+        .filter(|u| !u.is_null())
+    {
+        said.push(format!(
+            "length unit of the file: {} ({} m); coordinates and --size are in it",
+            u["name"].as_str().unwrap_or("?"),
+            u["metres"]
+        ));
+    }
+    said
+}
+
+/// What the animation page says about its frames.
+const ANIMATION_NOTE: &str = "Frame 1 is stage 1 (hierarchical placement); frame k > 1 shows the \
+     bubbles after the stage-2 step shown, recorded during the run that wrote the mesh, on the \
+     edges' final segments; the last frame is the mesh written.";
+
+/// Stages the frames as SVG and PNG in --frames and as a page in
+/// --animate; returns what to say about them.
+fn stage_frames(
+    out: &mut OutputSet,
+    a: &MeshArgs,
+    model: &Model,
+    spacing: &dyn Spacing,
+    title: &str,
+    notes: &[String],
+    frames: &[frames::SettleFrame],
+) -> Result<Vec<String>, CliError> {
+    let mut said = Vec::new();
+    let pictures = frame_pictures(model, spacing, &a.picture, frames)?;
+    if let Some(dir) = &a.frames {
+        for (k, (f, svg)) in frames.iter().zip(&pictures).enumerate() {
+            stage_bytes(
+                out,
+                &dir.join(format!("frame_{k:03}.svg")),
+                svg.svg.as_bytes(),
+            )?;
+            let png = bubblemesh_viz::png(&f.mesh, &frame_options(model, spacing, &a.picture, f))?;
+            stage_bytes(out, &dir.join(format!("frame_{k:03}.png")), &png)?;
+        }
+        if !a.quiet {
+            said.push(format!(
+                "wrote {} frames into {}",
+                frames.len(),
+                dir.display()
+            ));
+        }
+    }
+    if let Some(path) = &a.animate {
+        let page =
+            bubblemesh_viz::anim::page(&format!("{title}: the bubbles settling"), notes, &pictures);
+        stage_bytes(out, path, page.as_bytes())?;
+        if !a.quiet {
+            said.push(format!("wrote the animation {}", path.display()));
+        }
+    }
+    Ok(said)
 }
 
 /// Faces the engine meshed finer than asked (`engine::refine`): the mesh
@@ -725,14 +830,15 @@ fn warn_refined(model: &Model, report: &Report) {
     }
 }
 
-fn run_draw(a: DrawArgs) -> Result<(), String> {
+/// `bubblemesh draw`.
+fn run_draw(a: DrawArgs) -> Result<(), CliError> {
     let kind = match Kind::from_path(&a.output) {
         Some(k) => k,
         None => {
-            return Err(format!(
+            return Err(CliError::Message(format!(
                 "{}: draw writes pictures: use .svg, .png or .html",
                 a.output.display()
-            ))
+            )))
         }
     };
     let mut outputs = vec![file_output("-o", &a.output)];
@@ -773,18 +879,18 @@ fn run_draw(a: DrawArgs) -> Result<(), String> {
             &title,
         )?;
     }
-    out.commit().map_err(|e| format!("cannot write: {e}"))
+    out.commit().map_err(CliError::Write)
 }
 
 /// Whether OUTPUT is a picture (`Some`) or a mesh file (`None`); an
 /// extension that is neither is an error before any work is done.
-fn output_kind(path: &Path) -> Result<Option<Kind>, String> {
+fn output_kind(path: &Path) -> Result<Option<Kind>, CliError> {
     if let Some(k) = Kind::from_path(path) {
         return Ok(Some(k));
     }
     bubblemesh_io::Format::from_path(path)
         .map(|_| None)
-        .map_err(|e| format!("{e}, or a picture: .svg, .png, .html"))
+        .map_err(CliError::OutputKind)
 }
 
 /// What a picture shows besides the mesh.
@@ -830,26 +936,29 @@ fn stage_output(
     kind: Option<Kind>,
     pic: &PictureArgs,
     d: &Drawing,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     let Some(kind) = kind else {
-        let format = bubblemesh_io::Format::from_path(path).map_err(|e| e.to_string())?;
+        let format = bubblemesh_io::Format::from_path(path)?;
         if matches!(
             format,
             bubblemesh_io::Format::Stl | bubblemesh_io::Format::Obj
         ) && bubblemesh_io::surface_triangles(mesh).is_empty()
         {
-            return Err(format!(
+            return Err(CliError::Message(format!(
                 "{}: the mesh has no triangles ({} nodes, {} edge elements): .{} holds \
                  triangles only; use .msh, .vtu or .mesh for edges",
                 path.display(),
                 mesh.nodes.len(),
                 mesh.lines.len(),
                 format.extension()
-            ));
+            )));
         }
-        return bubblemesh_io::stage_as(out, mesh, path, format).map_err(|e| e.to_string());
+        return Ok(bubblemesh_io::stage_as(out, mesh, path, format)?);
     };
-    let fail = |e: bubblemesh_viz::VizError| format!("{}: {e}", path.display());
+    let fail = |source| CliError::Picture {
+        path: path.to_path_buf(),
+        source,
+    };
     let bytes = match kind {
         Kind::Svg => bubblemesh_viz::svg(mesh, &picture_options(mesh, pic, d.spacing, d.title))
             .map_err(fail)?
@@ -890,7 +999,7 @@ fn stage_plots(
     spacing: Option<&dyn Spacing>,
     q: &QualityReport,
     title: &str,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     use bubblemesh_viz::plots;
     let mut files: Vec<(String, String)> = Vec::new();
     if let Some(r) = report {
@@ -925,114 +1034,32 @@ fn stage_plots(
     stage_bytes(out, &dir.join("index.html"), index.as_bytes())
 }
 
-/// One picture of the settling simulation.
-struct SettleFrame {
-    label: String,
-    mesh: Mesh,
-}
-
-/// The meshes of the settling simulation: stage 1 alone, then runs whose
-/// stage 2 stops after 1, 2, 4, 8, ... steps, then the full run's mesh.
-///
-/// The engine reports no bubble positions during stage 2, so each frame is
-/// its own run with a smaller step limit. Population control in run k keeps
-/// the full run's schedule (it stops at the same step), so the first k steps
-/// of run k are the full run's first k steps; each run is then connected and
-/// improved as usual. The sequence stops early once a run converges before
-/// its limit (it equals the full run).
-fn settle_frames(
-    model: &Model,
-    spacing: &dyn Spacing,
-    opts: &Options,
-    full: &Mesh,
-    full_report: &Report,
-    quiet: bool,
-) -> Result<Vec<SettleFrame>, String> {
-    let count = |r: &Report| r.nodes;
-    let mut out = Vec::new();
-    let mut o = opts.clone();
-    o.progress = None;
-    o.fast = true;
-    let (m, r) = mesh_model(model, spacing, &o).map_err(|e| e.to_string())?;
-    out.push(SettleFrame {
-        label: format!("stage 1 (hierarchical placement): {} bubbles", count(&r)),
-        mesh: m,
-    });
-    if !opts.fast {
-        let n = opts.relax.max_steps;
-        let full_until = (n as f64 * opts.relax.population_until) as usize;
-        let mut k = 1;
-        while k < n {
-            let mut o = opts.clone();
-            o.progress = None;
-            o.relax.max_steps = k;
-            o.relax.population_until = (full_until as f64 + 0.5) / k as f64;
-            if !quiet {
-                eprintln!("frame {}: stage 2 limited to {k} steps", out.len());
-            }
-            let (m, r) = mesh_model(model, spacing, &o).map_err(|e| e.to_string())?;
-            let converged = r
-                .faces
-                .iter()
-                .all(|f| !f.relax.as_ref().is_some_and(|x| x.steps >= k));
-            if converged {
-                break;
-            }
-            out.push(SettleFrame {
-                label: format!("stage 2 after {k} steps: {} bubbles", count(&r)),
-                mesh: m,
-            });
-            k *= 2;
-        }
-        let steps = full_report
-            .faces
-            .iter()
-            .filter_map(|f| f.relax.as_ref().map(|x| x.steps))
-            .max()
-            .unwrap_or(0);
-        out.push(SettleFrame {
-            label: format!(
-                "final: stage 2 ended after {steps} steps: {} bubbles",
-                count(full_report)
-            ),
-            mesh: full.clone(),
-        });
-    } else {
-        out.truncate(0);
-        out.push(SettleFrame {
-            label: format!("stage 1 only (--fast): {} bubbles", count(full_report)),
-            mesh: full.clone(),
-        });
-    }
-    Ok(out)
-}
-
 /// Picture options of one frame: bubbles always drawn, every frame framed
 /// on the model's box so that the pictures share one scale.
 fn frame_options(
     model: &Model,
     spacing: &dyn Spacing,
     pic: &PictureArgs,
-    f: &SettleFrame,
+    f: &frames::SettleFrame,
 ) -> PictureOptions {
     let mut o = picture_options(&f.mesh, pic, Some(spacing), &f.label);
-    o.bubbles = Some(node_spacing(&f.mesh, spacing));
+    o.bubbles = Some(f.bubbles.clone());
     o.fit = model.bbox();
     o.caption = Some(f.label.clone());
     o
 }
 
+/// The SVG picture of each frame.
 fn frame_pictures(
     model: &Model,
     spacing: &dyn Spacing,
     pic: &PictureArgs,
-    frames: &[SettleFrame],
-) -> Result<Vec<bubblemesh_viz::anim::Frame>, String> {
+    frames: &[frames::SettleFrame],
+) -> Result<Vec<bubblemesh_viz::anim::Frame>, CliError> {
     frames
         .iter()
         .map(|f| {
-            let svg = bubblemesh_viz::svg(&f.mesh, &frame_options(model, spacing, pic, f))
-                .map_err(|e| e.to_string())?;
+            let svg = bubblemesh_viz::svg(&f.mesh, &frame_options(model, spacing, pic, f))?;
             Ok(bubblemesh_viz::anim::Frame {
                 label: f.label.clone(),
                 svg,
@@ -1041,7 +1068,8 @@ fn frame_pictures(
         .collect()
 }
 
-fn run_quality(a: QualityArgs) -> Result<(), String> {
+/// `bubblemesh quality`.
+fn run_quality(a: QualityArgs) -> Result<(), CliError> {
     let outputs: Vec<OutputPath> = a
         .json
         .as_deref()
@@ -1056,18 +1084,18 @@ fn run_quality(a: QualityArgs) -> Result<(), String> {
     };
     let q = quality::analyse(&mesh, spacing.as_ref().map(|s| s as &dyn Spacing));
     if let Some(path) = &a.json {
-        let text = serde_json::to_string_pretty(&q).map_err(|e| e.to_string())?;
+        let text = serde_json::to_string_pretty(&q)?;
         stage_bytes(&mut out, path, text.as_bytes())?;
     }
-    out.commit().map_err(|e| format!("cannot write: {e}"))?;
+    out.commit().map_err(CliError::Write)?;
     println!("{}", q.table());
     warn_low_quality(&low_quality_faces(&mesh));
     Ok(())
 }
 
 /// Reads a mesh file, printing on stderr what the reader skipped.
-fn read_mesh(path: &Path) -> Result<Mesh, String> {
-    let (mesh, notes) = bubblemesh_io::read_with_notes(path).map_err(|e| e.to_string())?;
+fn read_mesh(path: &Path) -> Result<Mesh, CliError> {
+    let (mesh, notes) = bubblemesh_io::read_with_notes(path)?;
     for n in notes {
         eprintln!("warning: {}: {n}", path.display());
     }
@@ -1075,8 +1103,8 @@ fn read_mesh(path: &Path) -> Result<Mesh, String> {
 }
 
 /// Parses a --size expression.
-fn parse_expr(text: &str) -> Result<Expr, String> {
-    Expr::parse(text).map_err(|e| e.to_string())
+fn parse_expr(text: &str) -> Result<Expr, CliError> {
+    Ok(Expr::parse(text)?)
 }
 
 /// A file output of the command line.
@@ -1100,20 +1128,18 @@ fn dir_output<'a>(label: &'a str, path: &'a Path) -> OutputPath<'a> {
 /// Checks the outputs against the inputs and each other and makes the
 /// output directories; the returned set stages the files and removes all
 /// this run made unless committed.
-fn prepare_outputs(inputs: &[&Path], outputs: &[OutputPath]) -> Result<OutputSet, String> {
-    bubblemesh_io::output::check_outputs(inputs, outputs).map_err(|e| e.to_string())?;
+fn prepare_outputs(inputs: &[&Path], outputs: &[OutputPath]) -> Result<OutputSet, CliError> {
+    bubblemesh_io::output::check_outputs(inputs, outputs)?;
     let mut out = OutputSet::new();
     for o in outputs.iter().filter(|o| o.kind == OutputKind::Dir) {
-        out.dir(o.path)
-            .map_err(|e| format!("{e} (cannot create the directory)"))?;
+        out.dir(o.path).map_err(CliError::MakeDir)?;
     }
     Ok(out)
 }
 
 /// Stages a file of this run (written at commit).
-fn stage_bytes(out: &mut OutputSet, path: &Path, bytes: &[u8]) -> Result<(), String> {
-    out.bytes(path, bytes)
-        .map_err(|e| format!("cannot write: {e}"))
+fn stage_bytes(out: &mut OutputSet, path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    out.bytes(path, bytes).map_err(CliError::Write)
 }
 
 /// Elements of radius ratio below this are reported on stderr.

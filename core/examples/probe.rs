@@ -108,7 +108,7 @@ pub fn worst(mesh: &bubblemesh_core::Mesh, q: &[f64]) {
             q[i], c.x, c.y, dims
         );
     }
-    let mut band = vec![(0.0, 0usize); 8];
+    let mut band = [(0.0, 0usize); 8];
     for (i, t) in mesh.triangles.iter().enumerate() {
         let c = t
             .nodes

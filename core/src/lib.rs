@@ -16,31 +16,39 @@
 //! - [`spacing`]: the node-spacing interface d(x) (§3.2.1, §4.6);
 //! - [`bubbles`]: the dimension-independent physics: forces (§4.2),
 //!   dynamics (§4.3–4.4), constraints (§4.5), population control (§4.7);
-//! - [`edge`], [`face`], [`volume`]: stage 1 placement (§4.1), packing and
+//! - `edge`, [`face`], [`volume`]: stage 1 placement (§4.1), packing and
 //!   connection of each dimension; `volume::tet`: the tetrahedral passes;
-//! - [`engine`]: [`mesh_model`], meshing in the order of dimensions;
+//! - [`engine`]: [`mesh_model`], meshing in the order of dimensions, with
+//!   its [`Options`] (and their [`Event`] observer) and [`Report`];
 //! - [`measure`]: the one definition of each element measure;
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality;
 //!   [`verify`]: the last check a mesh passes before it may be written.
 
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
 pub mod bubbles;
 pub mod curvature;
-pub mod edge;
+pub(crate) mod edge;
 pub mod engine;
-pub mod error;
+pub(crate) mod error;
 pub mod face;
 pub mod geom;
 pub(crate) mod incidence;
 pub mod measure;
 pub mod mesh;
 pub mod model;
-pub mod options;
+pub(crate) mod options;
 pub mod quality;
 pub mod spacing;
 pub mod verify;
 pub mod volume;
 
-pub use engine::{mesh_model, Options, Report};
+// The API other crates use: meshing, its options, observer and report.
+pub use engine::{
+    mesh_model, EnergySample, Event, Integrator, ObserverFn, Options, RelaxSettings, RelaxStats,
+    Report, Timings, VolumeLattice,
+};
 pub use error::MeshError;
 pub use geom::{Curve, Plane, Surface, SurfaceDerivs, P3, V3};
 pub use mesh::Mesh;

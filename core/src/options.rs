@@ -1,38 +1,122 @@
-//! What a run is asked to do: the engine's options, and the progress
-//! callback long runs report to.
+//! What a run is asked to do: the engine's options, and the observer that
+//! a run reports its progress to.
+//!
+//! The observer is told of each stage of each entity as it happens: the
+//! bubbles stage 1 placed, each stage-2 step, the improvement passes, the
+//! entity finished. Snapshots are borrowed slices of the engine's own
+//! arrays, so an observer that ignores them costs one call per event and
+//! nothing else; one that wants to keep them (the animation of the
+//! bubbles settling) copies what it needs.
 
 use std::sync::Arc;
 
 use crate::bubbles::system::RelaxSettings;
+use crate::geom::P3;
+use crate::mesh::Mesh;
 use crate::model::EntityRef;
 
-/// Progress of a long run, for progress bars.
+/// What a run tells its observer ([`Options::observer`]).
+///
+/// In `positions` and `diameters` (one per bubble) the first `fixed`
+/// bubbles are the fixed ones of lower dimensions (the entity's boundary),
+/// the others the entity's own.
 #[derive(Clone, Copy, Debug)]
-pub struct Progress {
-    pub phase: &'static str,
-    pub entity: EntityRef,
-    pub step: usize,
-    pub max_steps: usize,
+pub enum Event<'a> {
+    /// Stage 1 (§4.1) placed the bubbles of `entity`.
+    Stage1 {
+        /// The face or volume.
+        entity: EntityRef,
+        /// How many of the bubbles are fixed (they come first).
+        fixed: usize,
+        /// Bubble centres.
+        positions: &'a [P3],
+        /// Bubble diameters.
+        diameters: &'a [f64],
+    },
+    /// Stage 2 (§4.3–4.7) made step `step` (from 1) of at most `max_steps`
+    /// on `entity`.
+    Step {
+        /// The face or volume.
+        entity: EntityRef,
+        /// The step just made, from 1.
+        step: usize,
+        /// The step limit of this entity.
+        max_steps: usize,
+        /// How many of the bubbles are fixed (they come first).
+        fixed: usize,
+        /// Bubble centres after the step.
+        positions: &'a [P3],
+        /// Bubble diameters after the step.
+        diameters: &'a [f64],
+    },
+    /// An improvement pass of `entity`'s elements finished, after `seconds`;
+    /// `stats` are its counts by name.
+    Pass {
+        /// The volume.
+        entity: EntityRef,
+        /// The pass ("odt", "delaunay", "slivers", "polish").
+        name: &'static str,
+        /// Wall-clock seconds the pass took.
+        seconds: f64,
+        /// What the pass did, by name (e.g. `("iterations", 12.0)`).
+        stats: &'a [(&'static str, f64)],
+    },
+    /// `entity` is meshed; `mesh` is the mesh so far.
+    Done {
+        /// The vertex, edge, face or volume.
+        entity: EntityRef,
+        /// Everything meshed so far, `entity` included.
+        mesh: &'a Mesh,
+    },
 }
 
-/// A progress callback.
-pub type ProgressFn = Arc<dyn Fn(Progress) + Send + Sync>;
+/// An observer of a run: called on the meshing thread for each [`Event`].
+/// A panic in it unwinds out of [`crate::mesh_model`].
+pub type ObserverFn = Arc<dyn Fn(&Event<'_>) + Send + Sync>;
 
-/// The stage-2 step callback of `entity`: forwards each step to
-/// `progress`, if there is one, as phase "relax".
-pub(crate) fn relax_progress(
-    progress: &Option<ProgressFn>,
-    entity: EntityRef,
-    max_steps: usize,
-) -> impl FnMut(usize) + '_ {
-    move |step| {
-        if let Some(p) = progress {
-            p(Progress {
-                phase: "relax",
+impl Options {
+    /// Tells the observer, if there is one, of `event`.
+    pub(crate) fn tell(&self, event: &Event<'_>) {
+        if let Some(o) = &self.observer {
+            o(event);
+        }
+    }
+
+    /// Tells the observer that stage 1 placed `diameters.len()` bubbles on
+    /// `entity`, the first `fixed` of them fixed.
+    pub(crate) fn stage1_done(
+        &self,
+        entity: EntityRef,
+        fixed: usize,
+        positions: &[P3],
+        diameters: &[f64],
+    ) {
+        self.tell(&Event::Stage1 {
+            entity,
+            fixed,
+            positions,
+            diameters,
+        });
+    }
+
+    /// The stage-2 step callback of `entity` (for
+    /// [`crate::bubbles::system::System::relax`]): tells the observer of
+    /// each step.
+    pub(crate) fn relax_observer(
+        &self,
+        entity: EntityRef,
+        max_steps: usize,
+        fixed: usize,
+    ) -> impl FnMut(usize, &[P3], &[f64]) + '_ {
+        move |step, positions, diameters| {
+            self.tell(&Event::Step {
                 entity,
                 step,
                 max_steps,
-            });
+                fixed,
+                positions,
+                diameters,
+            })
         }
     }
 }
@@ -49,7 +133,7 @@ pub enum VolumeLattice {
 }
 
 /// Engine options.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub struct Options {
     /// Highest dimension to mesh (default: the model's).
     pub dim: Option<u8>,
@@ -60,19 +144,10 @@ pub struct Options {
     /// The stage-1 lattice of volumes (BCC where the spacing is uniform,
     /// by default; see [`crate::volume`]).
     pub volume_lattice: VolumeLattice,
-    pub progress: Option<ProgressFn>,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            dim: None,
-            fast: false,
-            relax: RelaxSettings::default(),
-            volume_lattice: VolumeLattice::default(),
-            progress: None,
-        }
-    }
+    /// Told of each stage of each entity as the run goes ([`Event`]): the
+    /// progress bar, the animation of the bubbles settling, a C caller's
+    /// progress callback.
+    pub observer: Option<ObserverFn>,
 }
 
 impl std::fmt::Debug for Options {
@@ -89,12 +164,17 @@ impl std::fmt::Debug for Options {
 /// Wall-clock seconds per phase; each stage adds its own.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct Timings {
+    /// Meshing the edges (both stages).
     pub edges_s: f64,
+    /// Stage 1 of faces and volumes.
     pub stage1_s: f64,
+    /// Stage 2 of faces and volumes.
     pub stage2_s: f64,
+    /// Connecting faces and volumes and improving their elements.
     pub connect_s: f64,
     /// The conformal-lattice restart of graded planar faces (flattening,
     /// its stage 2, connection and improvement; `conformal`).
     pub lattice_s: f64,
+    /// The whole run, refinement rounds included.
     pub total_s: f64,
 }

@@ -23,6 +23,8 @@
 //!   lowest-dimensional element using the node), and `entities` lists every
 //!   entity used by a node or element.
 
+#![forbid(unsafe_code)]
+
 use std::collections::{BTreeMap, HashSet};
 use std::fmt;
 use std::fs;

@@ -22,6 +22,8 @@
 //! - renderers never panic on a mesh that breaks the [`Mesh`] invariants:
 //!   they return [`VizError::InvalidMesh`].
 
+#![forbid(unsafe_code)]
+
 use std::path::Path;
 
 pub use bubblemesh_core::Mesh;
@@ -54,8 +56,11 @@ pub enum VizError {
 /// The output kinds this crate writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
+    /// An SVG picture.
     Svg,
+    /// A PNG picture.
     Png,
+    /// The viewer page.
     Html,
 }
 

@@ -346,6 +346,8 @@ pub(crate) fn face_from_loops_within(
             .map(|x| x[c])
             .fold(f64::NEG_INFINITY, f64::max);
         let reached = |end: usize| {
+            // not `clamp`: a NaN width gives the tolerance of width 1e6
+            #[allow(clippy::manual_clamp)]
             let tol = 1e-9 * (bdom[c][1] - bdom[c][0]).abs().min(1e6).max(1.0);
             if end == 1 {
                 dom[c][1] > loop_hi + tol

@@ -21,8 +21,7 @@
 //! - [`from_truck_solid`] / [`from_truck_shell`]: B-reps built in code with
 //!   truck-modeling, their geometry converted the same way (see [`modeling`]).
 
-// `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it is also true for NaN.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![forbid(unsafe_code)]
 
 mod curve_tools;
 mod face_build;

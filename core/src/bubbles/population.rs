@@ -521,7 +521,7 @@ mod tests {
                 .count()
         };
         assert_eq!(count_in_hole(&sys), 0);
-        let stats = sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+        let stats = sys.relax(&RelaxSettings::default(), |_, _, _| {}).unwrap();
         assert!(stats.added >= 10, "added {}", stats.added);
         let back = count_in_hole(&sys);
         assert!(back >= 15, "only {back} bubbles back in the hole");
@@ -543,7 +543,7 @@ mod tests {
             let mut sys = square_system(&s);
             hex_fill(&mut sys, side, d, |_, _| false);
             let start = (sys.n() - sys.n_fixed) as f64;
-            sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+            sys.relax(&RelaxSettings::default(), |_, _, _| {}).unwrap();
             let n = (sys.n() - sys.n_fixed) as f64;
             assert!(
                 (n - estimate).abs() < 0.08 * estimate,

@@ -163,12 +163,12 @@ impl<'a, C: Carrier> System<'a, C> {
     }
 
     /// Stage 2: relaxes the free bubbles to a force balance with adaptive
-    /// population control (§4.3–4.7; see the module docs). `progress(step)`
+    /// population control (§4.3–4.7; see the module docs). `progress(step, positions, diameters)`
     /// is called each step.
     pub fn relax(
         &mut self,
         s: &RelaxSettings,
-        mut progress: impl FnMut(usize),
+        mut progress: impl FnMut(usize, &[P3], &[f64]),
     ) -> Result<RelaxStats, MeshError> {
         let h = dynamics::time_step(self.dim);
         let c = dynamics::damping(self.dim);
@@ -215,7 +215,7 @@ impl<'a, C: Carrier> System<'a, C> {
             };
             stats.steps = step;
             stats.final_max_move = max_move;
-            progress(step);
+            progress(step, &self.pos, &self.d);
             let population_open = step <= pop_until && st.quiet_checks < 3;
             if population_open && step % s.population_every == 0 {
                 let (del, add) = self.population_round(&mut st, step, s.population_every)?;
@@ -519,7 +519,7 @@ mod tests {
             ..Default::default()
         };
         let u0 = sys.potential(&sys.neighbours());
-        let stats = sys.relax(&settings, |_| {}).unwrap();
+        let stats = sys.relax(&settings, |_, _, _| {}).unwrap();
         assert!(stats.converged, "not converged in {} steps", stats.steps);
         assert_eq!(sys.n(), 6);
         let x = sorted_x(&sys);
@@ -557,7 +557,7 @@ mod tests {
                 plateau: f64::NEG_INFINITY,
                 ..Default::default()
             };
-            sys.relax(&settings, |_| {}).unwrap();
+            sys.relax(&settings, |_, _, _| {}).unwrap();
             assert!(
                 (sys.pos[2].x - 0.5).abs() < 1e-3,
                 "from {x0}: {}",

@@ -1,15 +1,32 @@
 //! The bubble engine: meshing in the order of dimensions (thesis §3.2.3).
 //!
 //! 1. Vertex bubbles: one fixed node per model vertex.
-//! 2. Edge meshing: stage 1 by recursive bisection (§4.1.1); stage 2 places
-//!    the number of bubbles of eq. 4.7.1 and relaxes the chain to the force
-//!    balance (§4.2–4.5).
-//! 3. Face meshing: stage 1 by the oblique quadtree (§4.1.2); stage 2 by
-//!    damped dynamics with population control (§4.3–4.7), bubbles held on
-//!    the face through their (u,v) (§4.5); then constrained Delaunay
-//!    connection in (u,v).
+//! 2. Edges (`crate::edge`): stage 1 by recursive bisection (§4.1.1);
+//!    stage 2 places the number of bubbles of eq. 4.7.1 and relaxes the
+//!    chain to the force balance (§4.2–4.5).
+//! 3. Faces ([`crate::face`]): stage 1 by the oblique quadtree (§4.1.2);
+//!    stage 2 by damped dynamics with population control (§4.3–4.7),
+//!    bubbles held on the face through their (u,v) (§4.5); then
+//!    constrained Delaunay connection in (u,v). The faces of each volume
+//!    are then oriented outward.
+//! 4. Volumes ([`crate::volume`]): stage 1 on a lattice, stage 2, Delaunay
+//!    tetrahedralization and the tetrahedral passes.
 //!
-//! Bubbles of lower dimensions are fixed while the next dimension is packed.
+//! Bubbles of lower dimensions are fixed while the next dimension is packed,
+//! so each dimension sees the finished mesh of the ones below it as its
+//! boundary. The finished mesh passes [`crate::verify::verify`] before it
+//! leaves the engine: a mesh that is not valid is never returned.
+//!
+//! Why a loop of attempts ([`mesh_model`] around `mesh_once`): a face that
+//! cannot be given a valid mesh at the requested spacing usually can at a
+//! finer one, so a failed attempt names the faces and edges to refine
+//! ([`refine`]) and the whole model is meshed again; the report lists every
+//! face meshed finer than asked.
+//!
+//! The run tells [`Options::observer`] what it does ([`Event`]): the face
+//! and volume stages report stage 1 and each stage-2 step with borrowed
+//! snapshots of the bubbles; this module reports each entity finished and
+//! the passes of each volume (from its report, once the volume is done).
 
 pub mod refine;
 
@@ -26,20 +43,30 @@ use crate::volume;
 pub use crate::bubbles::dynamics::Integrator;
 pub use crate::bubbles::system::{EnergySample, RelaxSettings, RelaxStats};
 pub use crate::error::MeshError;
-pub use crate::options::{Options, Progress, ProgressFn, Timings, VolumeLattice};
+pub use crate::options::{Event, ObserverFn, Options, Timings, VolumeLattice};
 
 /// What the run did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct Report {
+    /// The highest dimension meshed.
     pub dim: u8,
+    /// Stage 1 only (no stage 2).
     pub fast: bool,
+    /// The stage-2 integrator (none with `fast`).
     pub integrator: Option<Integrator>,
+    /// Nodes of the mesh.
     pub nodes: usize,
+    /// Line elements (edge segments).
     pub lines: usize,
+    /// Triangles.
     pub triangles: usize,
+    /// Tetrahedra.
     pub tetrahedra: usize,
+    /// Wall-clock seconds per phase.
     pub timings: Timings,
+    /// What was done on each face.
     pub faces: Vec<FaceReport>,
+    /// What was done in each volume.
     pub volumes: Vec<volume::VolumeReport>,
     /// Faces meshed with a spacing finer than requested because the
     /// requested one could not give them a valid mesh ([`refine`]).
@@ -106,7 +133,7 @@ struct Failed {
     edges: Vec<u32>,
 }
 
-impl From<MeshError> for Failed {
+impl From<MeshError> for Box<Failed> {
     fn from(error: MeshError) -> Self {
         /// The faces and edges whose refinement may cure `e`.
         fn culprits(e: &MeshError) -> (Vec<u32>, Vec<u32>) {
@@ -129,12 +156,12 @@ impl From<MeshError> for Failed {
             }
         }
         let (faces, edges) = culprits(&error);
-        Failed {
+        Box::new(Failed {
             error,
             faces,
             reasons: vec![],
             edges,
-        }
+        })
     }
 }
 
@@ -148,7 +175,7 @@ fn mesh_once(
     volume_spacing: &dyn Spacing,
     opts: &Options,
     refinement: &refine::Refinement,
-) -> Result<(Mesh, Report), Failed> {
+) -> Result<(Mesh, Report), Box<Failed>> {
     let model_dim = model.dim();
     let dim = opts.dim.unwrap_or(model_dim);
     if dim > model_dim {
@@ -162,52 +189,117 @@ fn mesh_once(
         ))
         .into());
     }
-    let mut mesh = Mesh::default();
-    mesh.set_entities_from(model);
-    let mut report = Report {
-        dim,
-        fast: opts.fast,
-        integrator: (!opts.fast).then_some(opts.relax.integrator),
-        ..Default::default()
+    let mut a = Attempt {
+        model,
+        spacing,
+        opts,
+        mesh: Mesh::default(),
+        node_d: Vec::new(),
+        report: Report {
+            dim,
+            fast: opts.fast,
+            integrator: (!opts.fast).then_some(opts.relax.integrator),
+            ..Default::default()
+        },
     };
-    // node spacing at each node, for the fixed bubbles of the next dimension
-    let mut node_d: Vec<f64> = Vec::new();
+    a.mesh.set_entities_from(model);
 
     // 1. vertex bubbles
-    for (i, v) in model.vertices.iter().enumerate() {
-        let e = EntityRef::new(0, i as u32);
-        if !(v.point.x.is_finite() && v.point.y.is_finite() && v.point.z.is_finite()) {
-            return Err(MeshError::Invalid(format!(
-                "{} has a non-finite position",
-                model.describe(e)
-            ))
-            .into());
-        }
-        let d = spacing.spacing(&SpacingQuery {
-            point: v.point,
-            entity: e,
-            params: [0.0; 2],
-        });
-        node_d.push(check_spacing(d, v.point, e).map_err(|x| x.within(model.describe(e)))?);
-        mesh.nodes.push(Node {
-            pos: v.point,
-            entity: e,
-            params: [0.0; 2],
-        });
-    }
-
+    a.vertices()?;
     // 2. edges
     let t_edges = Instant::now();
-    let mut edge_nodes: Vec<Vec<u32>> = Vec::with_capacity(model.edges.len());
-    // vertex pairs joined by an edge meshed as one segment: a second such
-    // edge between the same vertices (two arcs of a circle, a line beside an
-    // arc, both shorter than the spacing) gets a middle node, or the two
-    // edges would share one mesh segment and their faces one mesh edge
-    let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
-    if dim >= 1 {
+    let edge_nodes = if dim >= 1 {
+        a.edges(refinement)?
+    } else {
+        Vec::new()
+    };
+    a.report.timings.edges_s = t_edges.elapsed().as_secs_f64();
+    // 3. faces
+    if dim >= 2 {
+        a.faces(&edge_nodes)?;
+    }
+    // closed shells: every volume's face triangles outward (a face shared
+    // by two volumes keeps the first volume's orientation)
+    if dim >= 3 {
+        // a face mesh the shells cannot be walked through (two faces joined
+        // across a chord, an edge in four triangles) is named, so that its
+        // faces can be refined, before the volume stage refuses the shell
+        crate::verify::verify_face_topology(model, &a.mesh).map_err(MeshError::Check)?;
+    }
+    if dim >= 2 {
+        orient_volume_faces(model, &mut a.mesh, dim >= 3)?;
+    }
+    // 4. volumes
+    if dim >= 3 {
+        a.volumes(volume_spacing)?;
+    }
+    let Attempt {
+        mesh, mut report, ..
+    } = a;
+    // never silently wrong: the mesh leaves the engine only after its check
+    crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
+    report.nodes = mesh.nodes.len();
+    report.lines = mesh.lines.len();
+    report.triangles = mesh.triangles.len();
+    report.tetrahedra = mesh.tetrahedra.len();
+    Ok((mesh, report))
+}
+
+/// The state of one attempt: what is meshed so far, dimension by
+/// dimension.
+struct Attempt<'a> {
+    model: &'a Model,
+    spacing: &'a dyn Spacing,
+    opts: &'a Options,
+    mesh: Mesh,
+    /// The node spacing at each node, for the fixed bubbles of the next
+    /// dimension.
+    node_d: Vec<f64>,
+    report: Report,
+}
+
+impl Attempt<'_> {
+    /// One fixed node per model vertex.
+    fn vertices(&mut self) -> Result<(), MeshError> {
+        let model = self.model;
+        for (i, v) in model.vertices.iter().enumerate() {
+            let e = EntityRef::new(0, i as u32);
+            if !(v.point.x.is_finite() && v.point.y.is_finite() && v.point.z.is_finite()) {
+                return Err(MeshError::Invalid(format!(
+                    "{} has a non-finite position",
+                    model.describe(e)
+                )));
+            }
+            let d = self.spacing.spacing(&SpacingQuery {
+                point: v.point,
+                entity: e,
+                params: [0.0; 2],
+            });
+            self.node_d
+                .push(check_spacing(d, v.point, e).map_err(|x| x.within(model.describe(e)))?);
+            self.mesh.nodes.push(Node {
+                pos: v.point,
+                entity: e,
+                params: [0.0; 2],
+            });
+        }
+        Ok(())
+    }
+
+    /// Meshes every edge; returns the node ids along each.
+    fn edges(&mut self, refinement: &refine::Refinement) -> Result<Vec<Vec<u32>>, MeshError> {
+        let (model, spacing, opts) = (self.model, self.spacing, self.opts);
+        let mesh = &mut self.mesh;
+        let node_d = &mut self.node_d;
+        let mut edge_nodes: Vec<Vec<u32>> = Vec::with_capacity(model.edges.len());
+        // vertex pairs joined by an edge meshed as one segment: a second such
+        // edge between the same vertices (two arcs of a circle, a line beside an
+        // arc, both shorter than the spacing) gets a middle node, or the two
+        // edges would share one mesh segment and their faces one mesh edge
+        let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
-            let mut ids = mesh_edge(model, ei, spacing, opts.fast, &mut mesh, &mut node_d)
+            let mut ids = mesh_edge(model, ei, spacing, opts.fast, mesh, node_d)
                 .map_err(|x| x.within(model.describe(e)))?;
             // at least the refinement's segments (a refined edge shorter
             // than its spacing), and two where another one-segment edge
@@ -247,14 +339,20 @@ fn mesh_once(
                     entity: e,
                 });
             }
-            let _ = edge;
             edge_nodes.push(ids);
+            opts.tell(&Event::Done {
+                entity: e,
+                mesh: &*mesh,
+            });
         }
+        Ok(edge_nodes)
     }
-    report.timings.edges_s = t_edges.elapsed().as_secs_f64();
 
-    // 3. faces
-    if dim >= 2 {
+    /// Meshes every face. A face that fails does not stop the others, so
+    /// that one refinement round covers every face that needs it; the
+    /// error names them all.
+    fn faces(&mut self, edge_nodes: &[Vec<u32>]) -> Result<(), Box<Failed>> {
+        let (model, spacing, opts) = (self.model, self.spacing, self.opts);
         let mut failed: Vec<(u32, MeshError)> = Vec::new();
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
@@ -263,10 +361,10 @@ fn mesh_once(
                     model,
                     spacing,
                     opts,
-                    edge_nodes: &edge_nodes,
-                    node_d: &node_d,
+                    edge_nodes,
+                    node_d: &self.node_d,
                 };
-                mesh_face(&inputs, fi, &mut mesh, &mut report.timings, grow)
+                mesh_face(&inputs, fi, &mut self.mesh, &mut self.report.timings, grow)
             };
             // a grown start that cannot be connected (measured: the dome
             // sheet's pole cap at size 1.5, "constraint segments cross") is
@@ -276,7 +374,13 @@ fn mesh_once(
                 Err(MeshError::Connect(_)) if !opts.fast => face(false),
                 r => r,
             } {
-                Ok(fr) => report.faces.push(fr),
+                Ok(fr) => {
+                    self.report.faces.push(fr);
+                    opts.tell(&Event::Done {
+                        entity: e,
+                        mesh: &self.mesh,
+                    });
+                }
                 Err(err @ (MeshError::BadSpacing { .. } | MeshError::TooManyBubbles { .. })) => {
                     return Err(err.within(model.describe(e)).into())
                 }
@@ -289,36 +393,28 @@ fn mesh_once(
             let faces = failed.iter().map(|f| f.0).collect();
             let reasons = failed.iter().map(|f| f.1.to_string()).collect();
             let error = failed.swap_remove(0).1;
-            return Err(Failed {
+            return Err(Box::new(Failed {
                 error,
                 faces,
                 reasons,
                 edges: vec![],
-            });
+            }));
         }
-    }
-    // closed shells: every volume's face triangles outward (a face shared
-    // by two volumes keeps the first volume's orientation)
-    if dim >= 3 {
-        // a face mesh the shells cannot be walked through (two faces joined
-        // across a chord, an edge in four triangles) is named, so that its
-        // faces can be refined, before the volume stage refuses the shell
-        crate::verify::verify_face_topology(model, &mesh).map_err(MeshError::Check)?;
-    }
-    if dim >= 2 {
-        orient_volume_faces(model, &mut mesh, dim >= 3)?;
+        Ok(())
     }
 
-    // 4. volumes
-    if dim >= 3 {
+    /// Meshes every volume, packed with `volume_spacing` (see
+    /// [`mesh_once`]).
+    fn volumes(&mut self, volume_spacing: &dyn Spacing) -> Result<(), MeshError> {
+        let (model, opts) = (self.model, self.opts);
         // the face nodes are the fixed bubbles of the volumes: their spacing
-        for n in &mesh.nodes[node_d.len()..] {
-            let d = spacing.spacing(&SpacingQuery {
+        for n in &self.mesh.nodes[self.node_d.len()..] {
+            let d = self.spacing.spacing(&SpacingQuery {
                 point: n.pos,
                 entity: n.entity,
                 params: n.params,
             });
-            node_d.push(check_spacing(d, n.pos, n.entity)?);
+            self.node_d.push(check_spacing(d, n.pos, n.entity)?);
         }
         for vi in 0..model.volumes.len() {
             let e = EntityRef::new(3, vi as u32);
@@ -327,21 +423,20 @@ fn mesh_once(
                 vi,
                 volume_spacing,
                 opts,
-                &mut mesh,
-                &node_d,
-                &mut report.timings,
+                &mut self.mesh,
+                &self.node_d,
+                &mut self.report.timings,
             )
             .map_err(|x| x.within(model.describe(e)))?;
-            report.volumes.push(vr);
+            tell_passes(opts, e, &vr);
+            self.report.volumes.push(vr);
+            opts.tell(&Event::Done {
+                entity: e,
+                mesh: &self.mesh,
+            });
         }
+        Ok(())
     }
-    // never silently wrong: the mesh leaves the engine only after its check
-    crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
-    report.nodes = mesh.nodes.len();
-    report.lines = mesh.lines.len();
-    report.triangles = mesh.triangles.len();
-    report.tetrahedra = mesh.tetrahedra.len();
-    Ok((mesh, report))
 }
 
 /// Orients the triangles of each volume's faces outward (the first volume
@@ -399,4 +494,42 @@ fn orient_volume_faces(model: &Model, mesh: &mut Mesh, strict: bool) -> Result<(
         .collect();
     orient::orient_faces(model, mesh, &free, false);
     Ok(())
+}
+
+/// Tells the observer of the improvement passes of volume `entity`, from
+/// its report (the volume stage times each pass).
+fn tell_passes(opts: &Options, entity: EntityRef, r: &volume::VolumeReport) {
+    if opts.observer.is_none() {
+        return;
+    }
+    /// A pass: its name, seconds and counts.
+    type Pass<'a> = (&'static str, f64, &'a [(&'static str, f64)]);
+    let passes: [Pass; 4] = [
+        ("odt", r.odt_s, &[("iterations", r.odt_iterations as f64)]),
+        (
+            "delaunay",
+            r.delaunay_s,
+            &[
+                ("tetrahedra", r.tetrahedra as f64),
+                ("recovery_removed", r.recovery_removed as f64),
+            ],
+        ),
+        ("slivers", r.sliver_s, &[("steiner", r.steiner as f64)]),
+        (
+            "polish",
+            r.polish_s,
+            &[
+                ("moves", r.polish_moves as f64),
+                ("flips", r.polish_flips as f64),
+            ],
+        ),
+    ];
+    for (name, seconds, stats) in passes {
+        opts.tell(&Event::Pass {
+            entity,
+            name,
+            seconds,
+            stats,
+        });
+    }
 }

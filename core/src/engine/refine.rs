@@ -36,7 +36,9 @@ pub(crate) struct Refinement {
 /// One refined face, for the report.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct RefinedFace {
+    /// The face's id.
     pub face: u32,
+    /// The face's name in the model, if it has one.
     pub name: Option<String>,
     /// Interior and boundary spacing as a fraction of the requested one.
     pub spacing_factor: f64,
@@ -45,6 +47,7 @@ pub struct RefinedFace {
 }
 
 impl Refinement {
+    /// No refinement: every face and edge at level 0.
     pub fn new(model: &Model) -> Self {
         Refinement {
             face: vec![0; model.faces.len()],

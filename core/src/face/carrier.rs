@@ -172,7 +172,7 @@ mod tests {
         for i in sys.n_fixed..sys.n() {
             sys.vel[i] = V3::new(sys.pos[i].x - 0.5, sys.pos[i].y - 0.5, 0.0) * 2.0;
         }
-        sys.relax(&RelaxSettings::default(), |_| {}).unwrap();
+        sys.relax(&RelaxSettings::default(), |_, _, _| {}).unwrap();
         for i in sys.n_fixed..sys.n() {
             assert!(sys.carrier.contains(sys.params[i]));
             assert_eq!(sys.pos[i].z, 0.0);

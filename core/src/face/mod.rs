@@ -36,7 +36,7 @@ use crate::error::{check_spacing, MeshError};
 use crate::geom::{P3, V3};
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
-use crate::options::{relax_progress, Options, Timings};
+use crate::options::{Options, Timings};
 use crate::spacing::{Spacing, SpacingQuery};
 
 use carrier::OnFace;
@@ -203,6 +203,9 @@ pub(crate) fn mesh_face(
         ..Default::default()
     };
     timings.stage1_s += t1.elapsed().as_secs_f64();
+    inputs
+        .opts
+        .stage1_done(job.fe, sys.n_fixed, &sys.pos, &sys.d);
 
     if !inputs.opts.fast {
         let t2 = Instant::now();
@@ -600,7 +603,7 @@ impl<'a> FaceJob<'a> {
         };
         sys.relax(
             &settings,
-            relax_progress(&opts.progress, self.fe, settings.max_steps),
+            opts.relax_observer(self.fe, settings.max_steps, sys.n_fixed),
         )
     }
 
@@ -907,7 +910,7 @@ fn conformal_restart<C: constraint::Carrier>(
     // lattice leaves only the positions to settle. An error on this path
     // (say a constraint the connection cannot keep) leaves the packed mesh.
     let attempt = (|| -> Result<_, MeshError> {
-        let relax = sys.relax(settings, |_| {})?;
+        let relax = sys.relax(settings, |_, _, _| {})?;
         let carrier = &sys.carrier;
         let mut new_tris =
             connect::triangulate(&sys.params, segments, boundary, |c| carrier.contains(c))?;

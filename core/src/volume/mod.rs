@@ -610,6 +610,8 @@ fn attempt(
     };
     let mut sys = seed_bubbles(boundary, &scaled, carrier, lattice, &mut rep)?;
     timings.stage1_s += t0.elapsed().as_secs_f64();
+    job.opts
+        .stage1_done(job.entity, sys.n_fixed, &sys.pos, &sys.d);
     // a BCC lattice needs neither stage 2 nor ODT (module docs)
     let relax = !job.opts.fast && lattice == Lattice::Fcc;
     if relax {
@@ -710,7 +712,8 @@ fn relax_bubbles(
     };
     sys.relax(
         &settings,
-        crate::options::relax_progress(&job.opts.progress, job.entity, settings.max_steps),
+        job.opts
+            .relax_observer(job.entity, settings.max_steps, sys.n_fixed),
     )
 }
 

@@ -592,7 +592,7 @@ fn edge_geometry(model: &Model, edge_faces: &[Vec<u32>], ei: u32, t: f64) -> BmQ
             continue;
         };
         if let Some(p) = surface_principal(model.faces[fi as usize].surface.as_ref(), uv) {
-            if best.map_or(true, |b| p.k1.abs() > b.k1.abs()) {
+            if best.is_none_or(|b| p.k1.abs() > b.k1.abs()) {
                 best = Some(p);
             }
         }

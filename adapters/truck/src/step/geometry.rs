@@ -828,7 +828,7 @@ impl<'a> Geo<'a> {
             let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
             let r = self.t.real(id, &a[2], "radius")? * self.scale;
             let alpha = self.t.real(id, &a[3], "semi_angle")? * self.angle;
-            if !(r >= 0.0) || !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
+            if !(r >= 0.0 && alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
                 return Err(self.t.err(
                     id,
                     format!("radius {r} or semi-angle {alpha} rad out of range"),

@@ -122,7 +122,7 @@ fn unit_of(t: &Table, id: u64, depth: usize) -> Option<LengthUnit> {
         t.r(factor, mp.get(1)?, "unit_component").ok()?,
         depth + 1,
     )?;
-    (value > 0.0).then(|| LengthUnit {
+    (value > 0.0).then_some(LengthUnit {
         name,
         metres: value * base.metres,
     })
