@@ -1,6 +1,5 @@
 //! The meshing error: every failure names the entity and the reason.
 
-use crate::face::connect::ConnectError;
 use crate::geom::P3;
 use crate::model::EntityRef;
 
@@ -28,10 +27,10 @@ pub enum MeshError {
     /// A volume's tetrahedralization failed (other than for a boundary
     /// that is not Delaunay enough, which is [`MeshError::Refinable`]).
     #[error("{0}")]
-    Volume(#[from] crate::volume::Connect3dError),
+    Volume(#[from] Connect3dError),
     /// A volume's faces do not close it.
     #[error("{0}")]
-    Shell(#[from] crate::volume::ShellError),
+    Shell(#[from] ShellError),
     /// The finished mesh failed [`crate::verify::verify`]: nothing may be
     /// written.
     #[error("{0}")]
@@ -66,4 +65,68 @@ pub(crate) fn check_spacing(d: f64, point: P3, entity: EntityRef) -> Result<f64,
             entity,
         })
     }
+}
+
+/// Why a triangulation could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum ConnectError {
+    #[error("two mesh nodes coincide at (u,v) = ({0}, {1})")]
+    Duplicate(f64, f64),
+    #[error(
+        "constraint segments cross near (u,v) = ({0}, {1}) (boundary or embedded edges intersect)"
+    )]
+    Crossing(f64, f64),
+    #[error("a coordinate is not finite or too large for the triangulation: {0}")]
+    Insertion(String),
+    #[error(
+        "the surface is too coarsely sampled to connect its bubbles ({0}); \
+         a smaller size (at most about a fifth of the smallest radius of curvature) works"
+    )]
+    Coarse(String),
+}
+
+/// Why a volume could not be connected.
+#[derive(Debug, thiserror::Error)]
+pub enum Connect3dError {
+    #[error("Delaunay tetrahedralization failed: {0}")]
+    Delaunay(String),
+    #[error(
+        "{missing} boundary triangle(s) are not faces of the tetrahedralization and no interior \
+         node blocks them (first near ({x:.6}, {y:.6}, {z:.6})); the surface mesh is not \
+         Delaunay there — try a finer size"
+    )]
+    NotConforming {
+        missing: usize,
+        x: f64,
+        y: f64,
+        z: f64,
+        /// Indices into the boundary triangles of those missing (at most
+        /// `MAX_REPORTED`), so that the faces they belong to can be
+        /// meshed finer.
+        triangles: Vec<u32>,
+    },
+    #[error("the boundary mesh does not close the volume: the tetrahedra inside reach the convex hull near ({x:.6}, {y:.6}, {z:.6})")]
+    Leak { x: f64, y: f64, z: f64 },
+    #[error("two boundary nodes coincide at ({x:.6}, {y:.6}, {z:.6})")]
+    Duplicate { x: f64, y: f64, z: f64 },
+}
+
+/// Why a set of triangles is not a closed shell.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShellError {
+    /// A mesh edge used by other than two triangles: the shell is open or
+    /// non-manifold there.
+    #[error(
+        "the boundary is not closed: the mesh edge ({:.6}, {:.6}, {:.6})–({:.6}, {:.6}, {:.6}) \
+         belongs to {triangles} triangle(s), not 2",
+        a.x, a.y, a.z, b.x, b.y, b.z
+    )]
+    NotClosed {
+        /// The edge's ends.
+        a: P3,
+        /// The edge's other end.
+        b: P3,
+        /// How many triangles use it.
+        triangles: usize,
+    },
 }

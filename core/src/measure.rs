@@ -37,12 +37,16 @@ pub fn tet_volume6(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
 /// seen from above), so `orient3d(a, b, c, d)` is negative for a positive
 /// tetrahedron [a, b, c, d]; zero when the four points are coplanar.
 pub fn orient3d(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
-    let c3 = |p: &P3| robust::Coord3D {
+    robust::orient3d(c3(a), c3(b), c3(c), c3(d))
+}
+
+/// A point as the exact predicates of `robust` take it.
+pub(crate) fn c3(p: &P3) -> robust::Coord3D<f64> {
+    robust::Coord3D {
         x: p.x,
         y: p.y,
         z: p.z,
-    };
-    robust::orient3d(c3(a), c3(b), c3(c), c3(d))
+    }
 }
 
 /// Radius ratio of a triangle, q = 2·r_in/r_circ

@@ -32,7 +32,6 @@ use crate::geom::P3;
 use crate::measure::TET_FACES as FACE;
 use crate::mesh::Mesh;
 use crate::model::{EntityRef, Model};
-use crate::volume::connect::c3;
 
 /// Triangles with |cross product| ≤ this × diag² count as zero-area
 /// (meshcheck's threshold).
@@ -498,8 +497,8 @@ fn check_volumes(model: &Model, mesh: &Mesh) -> Result<(), CheckError> {
     let mut by_volume: Vec<Vec<[u32; 4]>> = vec![Vec::new(); model.volumes.len()];
     for t in &mesh.tetrahedra {
         let vol = EntityRef::new(3, t.entity.id);
-        let [a, b, c, d] = t.nodes.map(|k| c3(&pos(mesh, k)));
-        if robust::orient3d(a, b, c, d) >= 0.0 {
+        let [a, b, c, d] = t.nodes.map(|k| pos(mesh, k));
+        if crate::measure::orient3d(&a, &b, &c, &d) >= 0.0 {
             let at = pos(mesh, t.nodes[0]);
             return Err(CheckError {
                 also: vec![],

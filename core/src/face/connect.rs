@@ -14,23 +14,7 @@ use std::collections::{HashMap, HashSet};
 
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
-/// Why a triangulation could not be built.
-#[derive(Debug, thiserror::Error)]
-pub enum ConnectError {
-    #[error("two mesh nodes coincide at (u,v) = ({0}, {1})")]
-    Duplicate(f64, f64),
-    #[error(
-        "constraint segments cross near (u,v) = ({0}, {1}) (boundary or embedded edges intersect)"
-    )]
-    Crossing(f64, f64),
-    #[error("a coordinate is not finite or too large for the triangulation: {0}")]
-    Insertion(String),
-    #[error(
-        "the surface is too coarsely sampled to connect its bubbles ({0}); \
-         a smaller size (at most about a fifth of the smallest radius of curvature) works"
-    )]
-    Coarse(String),
-}
+pub use crate::error::ConnectError;
 
 /// Constrained Delaunay triangulation of `uv` with the constraint segments
 /// `segments` (indices into `uv`).

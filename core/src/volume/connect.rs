@@ -25,38 +25,14 @@
 use crate::measure::{triangle_circumball as circumball, TET_FACES as FACE};
 use std::collections::{HashMap, HashSet};
 
-use robust::Coord3D;
+use crate::measure::c3;
 
 use crate::geom::P3;
 
 /// Rounds of "remove the bubbles blocking a boundary triangle, rebuild".
 const RECOVERY_ROUNDS: usize = 6;
 
-/// Why a volume could not be connected.
-#[derive(Debug, thiserror::Error)]
-pub enum Connect3dError {
-    #[error("Delaunay tetrahedralization failed: {0}")]
-    Delaunay(String),
-    #[error(
-        "{missing} boundary triangle(s) are not faces of the tetrahedralization and no interior \
-         node blocks them (first near ({x:.6}, {y:.6}, {z:.6})); the surface mesh is not \
-         Delaunay there — try a finer size"
-    )]
-    NotConforming {
-        missing: usize,
-        x: f64,
-        y: f64,
-        z: f64,
-        /// Indices into the boundary triangles of those missing (at most
-        /// `MAX_REPORTED`), so that the faces they belong to can be
-        /// meshed finer.
-        triangles: Vec<u32>,
-    },
-    #[error("the boundary mesh does not close the volume: the tetrahedra inside reach the convex hull near ({x:.6}, {y:.6}, {z:.6})")]
-    Leak { x: f64, y: f64, z: f64 },
-    #[error("two boundary nodes coincide at ({x:.6}, {y:.6}, {z:.6})")]
-    Duplicate { x: f64, y: f64, z: f64 },
-}
+pub use crate::error::Connect3dError;
 
 /// The most missing boundary triangles a [`Connect3dError::NotConforming`]
 /// lists.
@@ -72,14 +48,6 @@ pub struct VolumeConnection {
     pub tets: Vec<[u32; 4]>,
     /// Free points removed for boundary recovery.
     pub removed: usize,
-}
-
-pub(crate) fn c3(p: &P3) -> Coord3D<f64> {
-    Coord3D {
-        x: p.x,
-        y: p.y,
-        z: p.z,
-    }
 }
 
 fn sorted3(mut t: [u32; 3]) -> [u32; 3] {

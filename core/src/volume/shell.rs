@@ -16,9 +16,10 @@
 //! Invariant: `inside` is exact for points not on the shell; points on the
 //! shell may go either way.
 
+pub use crate::error::ShellError;
 use std::collections::HashMap;
 
-use robust::{Coord, Coord3D};
+use robust::Coord;
 
 use crate::geom::{P3, V3};
 
@@ -171,14 +172,6 @@ impl Voxels {
 
 fn c2(p: &P3) -> Coord<f64> {
     Coord { x: p.y, y: p.z }
-}
-
-fn c3(p: &P3) -> Coord3D<f64> {
-    Coord3D {
-        x: p.x,
-        y: p.y,
-        z: p.z,
-    }
 }
 
 /// Whether the directed edge a→b of a counter-clockwise triangle owns the
@@ -379,7 +372,7 @@ impl Shell {
                 }
             }
             // behind the plane: the triangle's normal has +x component
-            if hit && robust::orient3d(c3(&a), c3(&b), c3(&cc), c3(p)) > 0.0 {
+            if hit && crate::measure::orient3d(&a, &b, &cc, p) > 0.0 {
                 odd = !odd;
             }
         }
@@ -393,26 +386,6 @@ impl Shell {
 /// component outward (a component nested inside an odd number of others,
 /// a void, points into itself).
 ///
-/// Why a set of triangles is not a closed shell.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ShellError {
-    /// A mesh edge used by other than two triangles: the shell is open or
-    /// non-manifold there.
-    #[error(
-        "the boundary is not closed: the mesh edge ({:.6}, {:.6}, {:.6})–({:.6}, {:.6}, {:.6}) \
-         belongs to {triangles} triangle(s), not 2",
-        a.x, a.y, a.z, b.x, b.y, b.z
-    )]
-    NotClosed {
-        /// The edge's ends.
-        a: P3,
-        /// The edge's other end.
-        b: P3,
-        /// How many triangles use it.
-        triangles: usize,
-    },
-}
-
 /// Returns an error naming an edge used by other than two triangles
 /// (the shell is open or non-manifold there).
 pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), ShellError> {
