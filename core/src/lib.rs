@@ -27,12 +27,12 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod bubbles;
+pub(crate) mod bubbles;
 pub mod curvature;
 pub(crate) mod edge;
 pub mod engine;
 pub(crate) mod error;
-pub mod face;
+pub(crate) mod face;
 pub mod geom;
 pub(crate) mod incidence;
 pub mod measure;
@@ -42,7 +42,7 @@ pub(crate) mod options;
 pub mod quality;
 pub mod spacing;
 pub mod verify;
-pub mod volume;
+pub(crate) mod volume;
 
 // The API other crates use: meshing, its options, observer and report.
 pub use engine::{

@@ -43,20 +43,28 @@ const DEG: f64 = 180.0 / std::f64::consts::PI;
 /// Element and node counts of the mesh.
 #[derive(Serialize, Clone, Debug, Default, PartialEq, Eq)]
 pub struct Counts {
+    /// Nodes.
     pub nodes: usize,
+    /// Line segments.
     pub lines: usize,
+    /// Triangles.
     pub triangles: usize,
+    /// Tetrahedra.
     pub tetrahedra: usize,
 }
 
 /// Triangle quality (keys as in meshcheck's `triangles` section).
 #[derive(Serialize, Clone, Debug)]
 pub struct TriangleQuality {
+    /// Triangles analysed.
     pub count: usize,
     /// Radius ratio q = 2 r_in / r_circ (1 for an equilateral triangle).
     pub q_min: f64,
+    /// Mean radius ratio.
     pub q_mean: f64,
+    /// 1st percentile of the radius ratio.
     pub q_p1: f64,
+    /// 5th percentile of the radius ratio.
     pub q_p5: f64,
     /// Smallest angle of the mesh, degrees.
     pub min_angle_min: f64,
@@ -79,6 +87,7 @@ pub struct TriangleQuality {
     pub valence_hist: BTreeMap<u32, usize>,
     /// Fraction of interior vertices with valence 6 (`None` without any).
     pub valence6_fraction: Option<f64>,
+    /// Mean valence of interior vertices (`None` without any).
     pub valence_mean: Option<f64>,
     /// Sum of the triangle areas.
     pub area: f64,
@@ -87,11 +96,15 @@ pub struct TriangleQuality {
 /// Tetrahedron quality (keys as in meshcheck's `tets` section).
 #[derive(Serialize, Clone, Debug)]
 pub struct TetQuality {
+    /// Tetrahedra analysed.
     pub count: usize,
     /// Radius ratio q = 3 r_in / r_circ (1 for a regular tetrahedron).
     pub q_min: f64,
+    /// Mean radius ratio.
     pub q_mean: f64,
+    /// 1st percentile of the radius ratio.
     pub q_p1: f64,
+    /// 5th percentile of the radius ratio.
     pub q_p5: f64,
     /// Smallest dihedral angle of the mesh, degrees.
     pub dihedral_min: f64,
@@ -114,25 +127,38 @@ pub struct TetQuality {
 /// Lengths of the unique edges of the analysed elements.
 #[derive(Serialize, Clone, Debug)]
 pub struct EdgeLengths {
+    /// Unique edges.
     pub count: usize,
+    /// Shortest, in model units.
     pub length_min: f64,
+    /// Mean, in model units.
     pub length_mean: f64,
+    /// Longest, in model units.
     pub length_max: f64,
 }
 
 /// How well edge lengths follow the spacing d: r = L / d(midpoint) per edge.
 #[derive(Serialize, Clone, Debug)]
 pub struct SpacingConformance {
+    /// Edges measured.
     pub edges: usize,
+    /// Mean of r.
     pub ratio_mean: f64,
     /// Population standard deviation.
     pub ratio_std: f64,
+    /// Smallest r.
     pub ratio_min: f64,
+    /// Largest r.
     pub ratio_max: f64,
+    /// 1st percentile of r.
     pub ratio_p1: f64,
+    /// 5th percentile of r.
     pub ratio_p5: f64,
+    /// Median of r.
     pub ratio_p50: f64,
+    /// 95th percentile of r.
     pub ratio_p95: f64,
+    /// 99th percentile of r.
     pub ratio_p99: f64,
     /// Fraction (0–1) of edges with r in [1/√2, √2].
     pub frac_within_sqrt2: f64,
@@ -145,11 +171,15 @@ pub struct SpacingConformance {
 /// elements of that kind (or no spacing was given).
 #[derive(Serialize, Clone, Debug)]
 pub struct QualityReport {
+    /// Element and node counts.
     pub counts: Counts,
+    /// Triangle quality.
     pub triangles: Option<TriangleQuality>,
+    /// Tetrahedron quality.
     pub tets: Option<TetQuality>,
     /// Edges of the analysed elements: tetrahedra if any, else triangles.
     pub edges: Option<EdgeLengths>,
+    /// Edge lengths against the spacing, when one was given.
     pub spacing: Option<SpacingConformance>,
 }
 

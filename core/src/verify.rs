@@ -48,13 +48,16 @@ const FOLD_COS: f64 = -0.94;
 #[derive(Debug, Clone, thiserror::Error)]
 #[error("the mesh failed its final check: {what} near ({x:.6}, {y:.6}, {z:.6})", x = at.x, y = at.y, z = at.z)]
 pub struct CheckError {
+    /// The entity whose mesh is wrong.
     pub entity: EntityRef,
     /// Other entities involved (the other faces at an edge, the edge).
     pub also: Vec<EntityRef>,
     /// Whether a finer spacing on `entity` and `also` may cure the defect
     /// (not for orientation or coinciding model vertices).
     pub refinable: bool,
+    /// What is wrong.
     pub what: String,
+    /// Where, in model coordinates.
     pub at: P3,
 }
 

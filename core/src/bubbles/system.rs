@@ -40,19 +40,27 @@ pub struct System<'a, C: Carrier> {
 /// Result of the stage-2 relaxation.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct RelaxStats {
+    /// Steps run.
     pub steps: usize,
+    /// Whether it stopped on the tolerance or the energy plateau (not on
+    /// the step limit).
     pub converged: bool,
+    /// Bubbles deleted by population control (§4.7).
     pub deleted: usize,
+    /// Bubbles added by population control (§4.7).
     pub added: usize,
     /// max |Δx|/d over free bubbles in the last step.
     pub final_max_move: f64,
+    /// The energy history, when [`RelaxSettings::record_energy`].
     pub energy: Vec<EnergySample>,
 }
 
 /// Stage-2 settings.
 #[derive(Clone, Copy, Debug)]
 pub struct RelaxSettings {
+    /// Euler or RK4 (§4.4).
     pub integrator: Integrator,
+    /// Step limit.
     pub max_steps: usize,
     /// Converged when max |Δx|/d over free bubbles is below this.
     pub tol: f64,
@@ -61,6 +69,7 @@ pub struct RelaxSettings {
     /// No population changes after this fraction of `max_steps`, so the last
     /// steps only relax.
     pub population_until: f64,
+    /// Record the energy of every step into [`RelaxStats::energy`].
     pub record_energy: bool,
     /// Stop when the potential energy fell by less than this fraction of
     /// k0·Σd² over the last 25 steps ([`PLATEAU`], [`PLATEAU_BOUNDARY`]).
@@ -254,9 +263,14 @@ pub const PLATEAU_BOUNDARY: f64 = 3e-5;
 /// (k0 · model length²).
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct EnergySample {
+    /// The step.
     pub step: usize,
+    /// Kinetic energy Σ m|v|²/2.
     pub kinetic: f64,
+    /// Potential energy of the interbubble forces (eq. 4.2.6 integrated).
     pub potential: f64,
+    /// Kinetic plus potential.
     pub total: f64,
+    /// Bubbles at that step (fixed and free).
     pub bubbles: usize,
 }

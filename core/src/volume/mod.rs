@@ -42,8 +42,6 @@ pub(crate) mod connect;
 pub(crate) mod shell;
 pub(crate) mod tet;
 
-pub use connect::Connect3dError;
-pub use shell::ShellError;
 pub use tet::SliverStats;
 
 use crate::geom::{VolumeGeometry, P3, V3};

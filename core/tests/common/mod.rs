@@ -176,7 +176,7 @@ pub fn spacing_conformance(mesh: &Mesh, d: impl Fn(&P3) -> f64) -> (f64, f64) {
         let m = P3::from((pa.coords + pb.coords) * 0.5);
         let r = (pa - pb).norm() / d(&m);
         sum += r;
-        if r >= std::f64::consts::FRAC_1_SQRT_2 && r <= std::f64::consts::SQRT_2 {
+        if (std::f64::consts::FRAC_1_SQRT_2..=std::f64::consts::SQRT_2).contains(&r) {
             inside += 1;
         }
     }

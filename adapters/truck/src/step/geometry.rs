@@ -1137,7 +1137,9 @@ mod tests {
     fn revolved_parabola_and_hyperbola_are_quadrics() {
         // the conics in the xz plane: their x axis along z (parabola) or x
         // (hyperbola), revolved about z
-        let cases: [(&str, &str, fn(&P3) -> f64); 2] = [
+        // (conic entity, its extra directions, the quadric it revolves to)
+        type Case = (&'static str, &'static str, fn(&P3) -> f64);
+        let cases: [Case; 2] = [
             (
                 "PARABOLA('',#4,0.5)",
                 "#6 = DIRECTION('',(0.,1.,0.));\n#7 = DIRECTION('',(0.,0.,1.));\n",
