@@ -157,6 +157,11 @@ struct MeshArgs {
     /// bounding-box diagonal (printed).
     #[arg(long, allow_hyphen_values = true)]
     size: Option<String>,
+    /// STEP files: convert the coordinates from the file's length unit to
+    /// this one (mm, cm, m, in, ft); --size and the output are then in it.
+    /// Default: the file's own unit (printed).
+    #[arg(long, value_name = "UNIT", value_parser = parse_unit)]
+    unit: Option<bubblemesh_truck::LengthUnit>,
     /// Highest dimension to mesh: 1 edges, 2 faces, 3 volumes. Default: the
     /// model's for a domain file; 2 (the boundary surfaces) for a STEP file,
     /// whose solids mesh into tetrahedra with --dim 3.
@@ -327,23 +332,44 @@ fn step_summary(info: &bubblemesh_truck::StepInfo) -> serde_json::Value {
             "name": u.name,
             "metres": u.metres,
         })),
+        "file_length_unit": info.file_length_unit.as_ref().map(|u| serde_json::json!({
+            "name": u.name,
+            "metres": u.metres,
+        })),
         "face_gaps": gaps,
         "degenerate_edges": info.degenerate_edges,
     })
 }
 
+/// `--unit`'s value: a length unit the STEP reader converts to.
+fn parse_unit(s: &str) -> Result<bubblemesh_truck::LengthUnit, String> {
+    bubblemesh_truck::LengthUnit::parse(s)
+        .ok_or_else(|| format!("unknown length unit '{s}'; expected mm, cm, m, in or ft"))
+}
+
 /// Reads the input model, choosing the reader by extension; for STEP files
-/// also what the reader found ([`step_summary`]).
-fn read_model(path: &Path) -> Result<(Model, Option<serde_json::Value>), CliError> {
+/// also what the reader found ([`step_summary`]), converted to `unit` when
+/// one is given.
+fn read_model(
+    path: &Path,
+    unit: Option<&bubblemesh_truck::LengthUnit>,
+) -> Result<(Model, Option<serde_json::Value>), CliError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     match ext.as_str() {
+        "toml" if unit.is_some() => Err(CliError::Message(format!(
+            "{}: --unit applies to STEP files; a domain file has no length unit",
+            path.display()
+        ))),
         "toml" => Ok((bubblemesh_analytic::read_domain(path)?, None)),
         "step" | "stp" => {
-            let s = bubblemesh_truck::read_step(path)?;
+            let options = bubblemesh_truck::StepOptions {
+                unit: unit.cloned(),
+            };
+            let s = bubblemesh_truck::read_step_with(path, &options)?;
             let summary = step_summary(&s.info);
             Ok((s.model, Some(summary)))
         }
@@ -505,7 +531,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     // its directory made, before meshing; `out` removes what this run made
     // if it fails
     let mut out = prepare_mesh_outputs(&a)?;
-    let (model, step_info) = read_model(&a.input)?;
+    let (model, step_info) = read_model(&a.input, a.unit.as_ref())?;
     if let Some(d) = a.dim {
         if d == 0 || d > 3 {
             return Err(CliError::Message(format!(
@@ -757,15 +783,26 @@ fn summary(
         a.output.display(),
         write_s
     ));
-    if let Some(u) = step_info
-        .and_then(|i| i.get("length_unit"))
-        .filter(|u| !u.is_null())
-    {
-        said.push(format!(
-            "length unit of the file: {} ({} m); coordinates and --size are in it",
-            u["name"].as_str().unwrap_or("?"),
-            u["metres"]
-        ));
+    let unit = |key: &str| {
+        step_info
+            .and_then(|i| i.get(key))
+            .filter(|u| !u.is_null())
+            .map(|u| {
+                (
+                    u["name"].as_str().unwrap_or("?").to_string(),
+                    u["metres"].clone(),
+                )
+            })
+    };
+    match (unit("length_unit"), unit("file_length_unit")) {
+        (Some((name, metres)), Some((file_name, _))) if name != file_name => said.push(format!(
+            "length unit: {name} ({metres} m), converted from the file's {file_name} (--unit); \
+             coordinates and --size are in it"
+        )),
+        (Some((name, metres)), _) => said.push(format!(
+            "length unit of the file: {name} ({metres} m); coordinates and --size are in it"
+        )),
+        _ => {}
     }
     said
 }

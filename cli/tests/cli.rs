@@ -382,3 +382,133 @@ fn fcc_flag_chooses_the_volume_lattice() {
     assert!(means["fcc"] > 0.90, "{means:?}");
     assert!(means["bcc"] > means["fcc"], "{means:?}");
 }
+
+/// `--unit` converts a STEP file's coordinates (the fixtures are in
+/// millimetres): the same mesh comes out scaled, with `--size` read in the
+/// new unit, and the summary and report say which unit the numbers are in.
+#[test]
+fn unit_converts_step_coordinates_and_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let step =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/step/block_holes.step");
+    let mm = dir.path().join("mm.msh");
+    let cm = dir.path().join("cm.msh");
+    let report = dir.path().join("cm.json");
+    let a = run(&[
+        "mesh",
+        step.to_str().unwrap(),
+        "-o",
+        mm.to_str().unwrap(),
+        "--size",
+        "3",
+        "--threads",
+        "1",
+    ]);
+    assert!(a.status.success(), "{}", stderr(&a));
+    let b = run(&[
+        "mesh",
+        step.to_str().unwrap(),
+        "-o",
+        cm.to_str().unwrap(),
+        "--size",
+        "0.3",
+        "--unit",
+        "cm",
+        "--threads",
+        "1",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(b.status.success(), "{}", stderr(&b));
+    assert!(
+        stderr(&b).contains("converted from the file's millimetre"),
+        "{}",
+        stderr(&b)
+    );
+    let (m1, m2) = (
+        bubblemesh_io::read(&mm).unwrap(),
+        bubblemesh_io::read(&cm).unwrap(),
+    );
+    let bbox = |m: &bubblemesh_core::Mesh| {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for n in &m.nodes {
+            for k in 0..3 {
+                lo[k] = lo[k].min(n.pos[k]);
+                hi[k] = hi[k].max(n.pos[k]);
+            }
+        }
+        (lo, hi)
+    };
+    let ((lo1, hi1), (lo2, hi2)) = (bbox(&m1), bbox(&m2));
+    for k in 0..3 {
+        let extent = hi1[k] - lo1[k];
+        assert!(extent > 1.0, "axis {k}: extent {extent} mm");
+        assert!(
+            (lo2[k] * 10.0 - lo1[k]).abs() < 1e-9 * extent,
+            "axis {k}: {} cm vs {} mm",
+            lo2[k],
+            lo1[k]
+        );
+        assert!(
+            (hi2[k] * 10.0 - hi1[k]).abs() < 1e-9 * extent,
+            "axis {k}: {} cm vs {} mm",
+            hi2[k],
+            hi1[k]
+        );
+    }
+    // the spacing scaled with the coordinates: about as many nodes
+    let (n1, n2) = (m1.nodes.len() as f64, m2.nodes.len() as f64);
+    assert!((n1 - n2).abs() < 0.02 * n1, "{n1} nodes in mm, {n2} in cm");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(
+        r["step"]["length_unit"]["name"], "centimetre",
+        "{}",
+        r["step"]
+    );
+    assert_eq!(
+        r["step"]["file_length_unit"]["name"], "millimetre",
+        "{}",
+        r["step"]
+    );
+}
+
+/// `--unit` is refused, with nothing written, for an unknown unit and for a
+/// domain file (which has no unit).
+#[test]
+fn unit_is_refused_where_it_cannot_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.msh");
+    let step = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/step/cube.step");
+    let o = run(&[
+        "mesh",
+        step.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--unit",
+        "furlong",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("unknown length unit 'furlong'; expected mm, cm, m, in or ft"),
+        "{}",
+        stderr(&o)
+    );
+    let toml = example("square.toml");
+    let o = run(&[
+        "mesh",
+        toml.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--unit",
+        "mm",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--unit applies to STEP files"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "a refused run wrote {}", out.display());
+}
