@@ -92,15 +92,7 @@ impl Default for ImproveParams {
 /// The improvement's settings.
 const PRM: ImproveParams = ImproveParams::DEFAULT;
 
-/// Radius ratio 2 r_in / r_circ of a triangle in model space.
-pub fn radius_ratio(a: &P3, b: &P3, c: &P3) -> f64 {
-    let (la, lb, lc) = ((b - c).norm(), (a - c).norm(), (a - b).norm());
-    if !(la > 0.0 && lb > 0.0 && lc > 0.0) {
-        return 0.0;
-    }
-    // q = (b+c-a)(c+a-b)(a+b-c) / (abc)
-    ((lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc)).max(0.0)
-}
+pub(crate) use crate::measure::triangle_radius_ratio as radius_ratio;
 
 fn orient_uv(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     robust::orient2d(
