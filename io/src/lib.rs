@@ -24,6 +24,7 @@
 //!   entity used by a node or element.
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use std::collections::{BTreeMap, HashSet};
 use std::fmt;
@@ -50,7 +51,9 @@ pub enum IoError {
     /// The operating system refused (missing directory, permissions, ...).
     #[error("{}: {source}", .path.display())]
     Io {
+        /// The file (or directory) the failed operation was on.
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: io::Error,
     },
@@ -60,23 +63,44 @@ pub enum IoError {
         .path.display(),
         Format::supported_list()
     )]
-    UnsupportedExtension { path: PathBuf, ext: String },
+    UnsupportedExtension {
+        /// The path whose extension was not recognised.
+        path: PathBuf,
+        /// The extension as given, with its dot (`.txt`), or `(none)` when
+        /// the path has no extension.
+        ext: String,
+    },
     /// The file's content is not a valid mesh of its format.
     #[error("{}{}: {reason}", .path.display(), line_suffix(*.line))]
     Parse {
+        /// The file that failed to parse.
         path: PathBuf,
         /// 1-based line number, when the format is line-oriented.
         line: Option<usize>,
+        /// What is wrong with the content (a missing section, a malformed
+        /// number, a node index out of range, ...).
         reason: String,
     },
     /// The mesh cannot be written (an element refers to a missing node, a
     /// coordinate is not finite, ...).
     #[error("{}: cannot write the mesh: {reason}", .path.display())]
-    InvalidMesh { path: PathBuf, reason: String },
+    InvalidMesh {
+        /// The file that was to be written; it is left untouched.
+        path: PathBuf,
+        /// The first defect found (too many nodes, a non-finite node, an
+        /// element naming a missing node, an entity dimension above 3).
+        reason: String,
+    },
     /// An output path that cannot be used (it is an input, a directory,
     /// another output, ...): see [`output::check_outputs`].
     #[error("{}: {reason}", .path.display())]
-    Output { path: PathBuf, reason: String },
+    Output {
+        /// The refused output path.
+        path: PathBuf,
+        /// Why it is refused; [`output::check_outputs`] names the output by
+        /// its command-line label (`-o`, `--report`).
+        reason: String,
+    },
 }
 
 fn line_suffix(line: Option<usize>) -> String {
@@ -89,16 +113,21 @@ fn line_suffix(line: Option<usize>) -> String {
 pub struct ParseError {
     /// 1-based line number, when it makes sense.
     pub line: Option<usize>,
+    /// What is wrong with the content (a missing section, a malformed number,
+    /// a node index out of range, ...).
     pub reason: String,
 }
 
 impl ParseError {
+    /// A parse error not tied to a line (a missing section, a truncated
+    /// binary file, ...).
     pub fn new(reason: impl Into<String>) -> Self {
         ParseError {
             line: None,
             reason: reason.into(),
         }
     }
+    /// A parse error at the 1-based `line`.
     pub fn at(line: usize, reason: impl Into<String>) -> Self {
         ParseError {
             line: Some(line),
@@ -141,6 +170,8 @@ pub enum Format {
 }
 
 impl Format {
+    /// Every supported format, in the order they are listed in messages
+    /// (MSH, VTU, STL, OBJ, Medit).
     pub const ALL: [Format; 5] = [
         Format::Msh,
         Format::Vtu,
@@ -236,6 +267,8 @@ pub fn read(path: &Path) -> Result<Mesh, IoError> {
 /// `<PointData>`): a target size, an error indicator, a solution.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NodeField {
+    /// The field's name: the first string tag of a MSH `$NodeData`, the
+    /// `Name` attribute of a VTU `<DataArray>`.
     pub name: String,
     /// Values per node (1 for a scalar).
     pub components: usize,

@@ -73,8 +73,12 @@ pub enum OutputKind {
 /// its path and whether it is a file or a directory.
 #[derive(Clone, Copy, Debug)]
 pub struct OutputPath<'a> {
+    /// The name the command line gives this output (`-o`, `--report`), used
+    /// in error messages.
     pub label: &'a str,
+    /// Where the output goes.
     pub path: &'a Path,
+    /// Whether the output is a file or a directory.
     pub kind: OutputKind,
 }
 
@@ -210,6 +214,7 @@ pub struct OutputSet {
 static COUNTER: AtomicUsize = AtomicUsize::new(0);
 
 impl OutputSet {
+    /// An empty set: nothing staged, no directory created.
     pub fn new() -> Self {
         Self::default()
     }

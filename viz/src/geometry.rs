@@ -37,6 +37,7 @@ pub use self::tet_radius_ratio as tet_q;
 /// A face a picture draws: three node ids and the element it belongs to.
 #[derive(Clone, Copy, Debug)]
 pub struct DrawFace {
+    /// The face's three corners, as indices into `mesh.nodes`.
     pub nodes: [u32; 3],
     /// Index into `mesh.triangles`, or into `mesh.tetrahedra` when the mesh
     /// is drawn through its tetrahedra.

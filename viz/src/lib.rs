@@ -23,6 +23,7 @@
 //!   they return [`VizError::InvalidMesh`].
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use std::path::Path;
 

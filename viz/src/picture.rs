@@ -37,6 +37,7 @@ pub enum ColorBy {
 /// How to draw a picture.
 #[derive(Clone, Debug)]
 pub struct PictureOptions {
+    /// What colours the elements: quality or model entity.
     pub color: ColorBy,
     /// Direction towards the viewer; `None`: [`auto_view`].
     pub view: Option<V3>,

@@ -138,7 +138,10 @@ fn open_svg(s: &mut String, w: f64, h: f64, title: &str) {
 /// The energy history of one face's relaxation.
 #[derive(Clone, Debug)]
 pub struct FaceEnergy<'a> {
+    /// The face's label in the chart heading (its model name, or `face N`).
     pub name: String,
+    /// The energy samples of the face's stage-2 relaxation, in step order;
+    /// empty for a face that was not relaxed (stage 1 only).
     pub samples: &'a [EnergySample],
 }
 
@@ -323,11 +326,17 @@ pub fn energy(faces: &[FaceEnergy]) -> String {
 /// A histogram to draw.
 #[derive(Clone, Debug)]
 pub struct Histogram<'a> {
+    /// The chart's heading, also its SVG `<title>`.
     pub title: String,
+    /// The label of the horizontal axis, naming the quantity and its unit.
     pub xlabel: String,
+    /// The values to count; non-finite values are left out.
     pub values: &'a [f64],
-    /// Values outside are counted in the first or last bin (and reported).
+    /// The horizontal axis, `(low, high)` in the values' unit; when `high`
+    /// is not above `low`, `(low, low + 1)` is used. Values outside are
+    /// counted in the first or last bin (and reported).
     pub range: (f64, f64),
+    /// The number of equal-width bins over `range` (0 is taken as 1).
     pub bins: usize,
     /// Vertical reference lines: position and label.
     pub markers: Vec<(f64, String)>,

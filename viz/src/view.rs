@@ -15,7 +15,11 @@ use bubblemesh_core::{P3, V3};
 pub struct Projection {
     /// Towards the viewer (unit).
     pub dir: V3,
+    /// The screen's right axis (unit): `z × dir` normalised, or `x` when
+    /// `dir` is along `z`.
     pub right: V3,
+    /// The screen's up axis (unit): `dir × right`, so `z` points up on the
+    /// screen unless one looks along `z`.
     pub up: V3,
 }
 

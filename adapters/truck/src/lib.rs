@@ -22,6 +22,7 @@
 //!   truck-modeling, their geometry converted the same way (see [`modeling`]).
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod curve_tools;
 mod face_build;

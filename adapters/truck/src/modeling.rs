@@ -35,6 +35,9 @@ pub struct TruckError {
     /// The entity at fault ("edge 3", "face 2", …; numbered in the order
     /// the model lists them).
     pub what: String,
+    /// What is wrong with it (an unsupported curve type such as an
+    /// intersection curve, an empty boundary wire or one using an edge
+    /// twice, vertices off their curve, invalid NURBS data, ...).
     pub reason: String,
 }
 

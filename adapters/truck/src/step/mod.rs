@@ -106,6 +106,8 @@ pub struct StepError {
     pub source_name: String,
     /// The entity at fault: id and type name.
     pub entity: Option<(u64, String)>,
+    /// What went wrong: the Part 21 syntax error, a missing or malformed
+    /// attribute, a geometry or topology the reader cannot convert, ...
     pub reason: String,
 }
 
@@ -175,19 +177,29 @@ pub struct StepOptions {
 /// One shell of the file.
 #[derive(Debug, Clone)]
 pub struct ShellInfo {
+    /// The STEP id of the `CLOSED_SHELL` or `OPEN_SHELL` (through any
+    /// `ORIENTED_CLOSED_SHELL` that refers to it).
     pub step_id: u64,
+    /// Whether the shell is a `CLOSED_SHELL` (`false`: an `OPEN_SHELL`).
     pub closed: bool,
     /// `true` for an outer shell, `false` for a void (its faces bound the
     /// solid from inside).
     pub outer: bool,
+    /// Index into the model's volumes of the solid this shell bounds;
+    /// `None` for a shell that belongs to no solid (a surface model).
     pub volume: Option<u32>,
+    /// The shell's faces, as indices into the model's faces, in the order
+    /// the shell lists them.
     pub faces: Vec<u32>,
 }
 
 /// A STEP file read as a model.
 #[derive(Debug, Clone)]
 pub struct StepModel {
+    /// The model, its coordinates in [`StepInfo::length_unit`].
     pub model: Model,
+    /// How the model's entities map back to the file, and what the reader
+    /// found on the way (units, seams, gaps, notes).
     pub info: StepInfo,
 }
 

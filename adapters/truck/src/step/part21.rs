@@ -70,12 +70,17 @@ pub struct Exchange {
 /// 1-based; columns count characters.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Part21Error {
+    /// What kind of failure it is, which also says what the position means.
     pub kind: Part21ErrorKind,
+    /// The 1-based line of the error's position.
     pub line: usize,
+    /// The 1-based column of the error's position, in characters.
     pub column: usize,
+    /// What was wrong at that position (the token expected or found, ...).
     pub message: String,
 }
 
+/// The kinds of [`Part21Error`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Part21ErrorKind {
     /// The text does not start with `ISO-10303-21;`.

@@ -10,7 +10,10 @@ use super::table::Table;
 /// A length unit: its name (`millimetre`, `inch`, …) and metres per unit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LengthUnit {
+    /// The unit's name: `millimetre`, `metre`, … for an SI unit (prefix and
+    /// `metre`), the file's own lower-cased name for a conversion-based one.
     pub name: String,
+    /// The unit's length in metres (positive: `0.001` for a millimetre).
     pub metres: f64,
 }
 
@@ -21,18 +24,23 @@ impl LengthUnit {
             metres,
         }
     }
+    /// The millimetre, 0.001 m.
     pub fn millimetre() -> Self {
         Self::named("millimetre", 1e-3)
     }
+    /// The centimetre, 0.01 m.
     pub fn centimetre() -> Self {
         Self::named("centimetre", 1e-2)
     }
+    /// The metre.
     pub fn metre() -> Self {
         Self::named("metre", 1.0)
     }
+    /// The inch, 0.0254 m.
     pub fn inch() -> Self {
         Self::named("inch", 0.0254)
     }
+    /// The foot, 0.3048 m.
     pub fn foot() -> Self {
         Self::named("foot", 0.3048)
     }
