@@ -3,6 +3,9 @@
 //! Mesh writers and readers: Gmsh MSH 4.1 ASCII (read also MSH 2.2), VTK XML
 //! `.vtu` (ASCII), STL (binary written; ASCII and binary read), Wavefront
 //! OBJ and Medit `.mesh`.
+//! A written `.msh` carries one physical group per entity with elements,
+//! tagged like the entity and named after it (the part or face; see
+//! [`msh`]), so FEM tools (Gmsh, meshio, dolfinx) tell the parts apart.
 //!
 //! [`write`] and [`read`] choose the format from the file extension. Each
 //! format module also offers `write_to` (to any [`std::io::Write`]) and

@@ -1,12 +1,21 @@
 //! Gmsh MSH: writes 4.1 ASCII; reads 4.1 ASCII and 2.2 ASCII.
 //!
 //! Written layout (invariants):
+//! - `$PhysicalNames` (after `$MeshFormat`, before `$Entities`; left out
+//!   when no entity has elements): one physical group per entity of
+//!   [`entity_table`] that has elements (a node on a vertex is a point
+//!   element), of the entity's dimension, its tag the entity tag, named
+//!   [`physical_name`]: the entity's model name (a STEP product, a domain
+//!   face) or, unnamed, [`default_name`] (`volume 3`, `face 12`, `edge 7`,
+//!   `point 1`), quoted, with `"` and `\` replaced so that Gmsh and meshio
+//!   read it. Names are not made unique: two entities may share one;
 //! - `$Entities` holds every entity of [`entity_table`]: tags are `id + 1`
 //!   per dimension; points carry the coordinates of their node (else the
 //!   centre of their bounding box, else the origin); curves, surfaces and
 //!   volumes carry the bounding box of their nodes, their elements' nodes and
 //!   their boundary entities, and their signed boundary tags restricted to
-//!   entities present in the table;
+//!   entities present in the table; an entity with elements lists its
+//!   physical group (`1 tag`), one without lists none (`0`);
 //! - `$Nodes` has one block per entity owning nodes (parametric = 0); every
 //!   node is in exactly one block, the block of `node.entity`; node tags are
 //!   `index + 1`, so the tags are 1..N (in blocks they need not be
@@ -16,15 +25,20 @@
 //!   (4-node tetrahedron); element tags are 1..M in file order; within a
 //!   block elements keep their order in the mesh.
 //!
-//! Reading: `$Entities` is parsed loosely (tags and boundaries; physical
-//! tags ignored), `$Nodes`/`$Elements` strictly; other Gmsh element types
+//! Reading: `$Entities` and `$PhysicalNames` are parsed loosely (tags,
+//! boundaries and physical tags; a bad name line is skipped),
+//! `$Nodes`/`$Elements` strictly. An entity is named after the first named
+//! physical group it belongs to (in MSH 2.2: its first element's physical
+//! tag), unless that name is its own [`default_name`] — so a written mesh
+//! reads back with the names it had, and a Gmsh group over several
+//! entities names each of them. Other Gmsh element types
 //! than 1, 2, 4 and 15 are skipped (with a note, see [`parse_with_notes`]),
 //! a type that is no Gmsh type is an error; unknown sections are skipped. Nodes are ordered by
 //! tag, so a file written here reads back with the same node indices. In MSH
 //! 2.2, where nodes carry no entity, a node on a point element is on that
 //! vertex and the others are inferred (see the crate documentation).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::io::{self, Write};
 
 use bubblemesh_core::mesh::{Element, EntityInfo, Mesh, Node};
@@ -38,8 +52,10 @@ use crate::{complete_entities, entity_table, infer_node_entities, NodeField, Par
 /// invariants (element indices in range; [`crate::write`] checks this).
 ///
 /// Longer than 150 lines on purpose: it writes the sections in file order
-/// ($MeshFormat, $Entities, $Nodes, $Elements) from tables built once at
-/// the top (entity tags and bounding boxes, nodes per entity), which every
+/// ($MeshFormat, $PhysicalNames, $Entities, $Nodes, $Elements) from tables
+/// built once at
+/// the top (entity tags, physical groups and bounding boxes, nodes per
+/// entity), which every
 /// section reads; split, the pieces would pass those tables around.
 pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
     let table = entity_table(mesh);
@@ -117,8 +133,39 @@ pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
     for n in mesh.nodes.iter().filter(|n| n.entity.dim == 0) {
         point_at.entry(n.entity).or_insert(n.pos);
     }
+    // Entities with elements (a node on a vertex is a point element): each
+    // is its own physical group, tag = entity tag.
+    let mut with_elements: HashSet<EntityRef> = point_at.keys().copied().collect();
+    with_elements.extend(mesh.lines.iter().map(|e| e.entity));
+    with_elements.extend(mesh.triangles.iter().map(|e| e.entity));
+    with_elements.extend(mesh.tetrahedra.iter().map(|e| e.entity));
+    let physical: Vec<bool> = table
+        .iter()
+        .map(|e| with_elements.contains(&e.entity))
+        .collect();
+    let phys = |i: usize| {
+        if physical[i] {
+            format!("1 {}", tag(table[i].entity))
+        } else {
+            "0".to_string()
+        }
+    };
 
     writeln!(w, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
+    let ngroups = physical.iter().filter(|&&p| p).count();
+    if ngroups > 0 {
+        writeln!(w, "$PhysicalNames\n{ngroups}")?;
+        for (_, e) in table.iter().enumerate().filter(|(i, _)| physical[*i]) {
+            writeln!(
+                w,
+                "{} {} \"{}\"",
+                e.entity.dim,
+                tag(e.entity),
+                physical_name(e)
+            )?;
+        }
+        writeln!(w, "$EndPhysicalNames")?;
+    }
     writeln!(w, "$Entities")?;
     let count = |d: u8| table.iter().filter(|e| e.entity.dim == d).count();
     writeln!(w, "{} {} {} {}", count(0), count(1), count(2), count(3))?;
@@ -129,14 +176,15 @@ pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
                 .get(&e.entity)
                 .copied()
                 .unwrap_or_else(|| P3::from((lo.coords + hi.coords) * 0.5));
-            writeln!(w, "{} {} 0", tag(e.entity), Xyz(&p))?;
+            writeln!(w, "{} {} {}", tag(e.entity), Xyz(&p), phys(i))?;
         } else {
             write!(
                 w,
-                "{} {} {} 0 {}",
+                "{} {} {} {} {}",
                 tag(e.entity),
                 Xyz(&lo),
                 Xyz(&hi),
+                phys(i),
                 boundary[i].len()
             )?;
             for b in &boundary[i] {
@@ -232,6 +280,44 @@ pub fn write_to<W: Write>(mesh: &Mesh, w: &mut W) -> io::Result<()> {
     blocks(w, &tets, 4, &mut next_tag)?;
     writeln!(w, "$EndElements")?;
     Ok(())
+}
+
+/// The physical-group name of an entity without a model name: `point N`,
+/// `edge N`, `face N` or `volume N`, N its (1-based) entity tag.
+pub fn default_name(e: EntityRef) -> String {
+    let kind = ["point", "edge", "face", "volume"][e.dim.min(3) as usize];
+    format!("{kind} {}", e.id as u64 + 1)
+}
+
+/// Longest physical name written, in bytes: Gmsh reads a `$PhysicalNames`
+/// line into a 256-byte buffer.
+const MAX_NAME: usize = 200;
+
+/// The physical-group name written for an entity: its model name, else
+/// [`default_name`]. Made safe for the quoted field of `$PhysicalNames` as
+/// Gmsh (which ends the name at the next `"`) and meshio (which splits the
+/// line like a POSIX shell) read it: `"` becomes `'`, `\` becomes `/`,
+/// control characters become spaces, and it is cut to [`MAX_NAME`] bytes
+/// (at a character boundary).
+pub fn physical_name(e: &EntityInfo) -> String {
+    let raw = match e.name.as_deref().map(str::trim) {
+        Some(n) if !n.is_empty() => n.to_string(),
+        _ => return default_name(e.entity),
+    };
+    let mut out = String::with_capacity(raw.len());
+    for c in raw.chars() {
+        let c = match c {
+            '"' => '\'',
+            '\\' => '/',
+            c if c.is_control() => ' ',
+            c => c,
+        };
+        if out.len() + c.len_utf8() > MAX_NAME {
+            break;
+        }
+        out.push(c);
+    }
+    out
 }
 
 /// Parses MSH 4.1 or 2.2 ASCII.
@@ -338,6 +424,7 @@ fn parse_impl(data: &[u8], node_data: bool) -> Result<Parsed, ParseError> {
             ("Elements", true) => r.elements_41(&mut t)?,
             ("Nodes", false) => r.nodes_22(&mut t)?,
             ("Elements", false) => r.elements_22(&mut t)?,
+            ("PhysicalNames", _) => r.physical_names(&mut t)?,
             ("NodeData", _) if node_data => r.node_data(&mut t)?,
             _ => skip_section(&mut t, name)?,
         }
@@ -413,6 +500,11 @@ struct Reader {
     fields: Vec<NodeField>,
     /// Element type → number of elements skipped.
     skipped: std::collections::BTreeMap<i64, usize>,
+    /// `$PhysicalNames`: (dimension, physical tag) → name.
+    physical_names: HashMap<(u8, i64), String>,
+    /// Entity → its physical tags (MSH 4.1 `$Entities`; in MSH 2.2 the
+    /// physical tag of its first element).
+    physical_tags: HashMap<EntityRef, Vec<i64>>,
 }
 
 enum TagMap {
@@ -442,6 +534,10 @@ impl Reader {
                 } else {
                     boundary_tags(&tok[1..]).unwrap_or_default()
                 };
+                let phys = entity_physical_tags(&tok[1..], dim == 0).unwrap_or_default();
+                if !phys.is_empty() {
+                    self.physical_tags.entry(e).or_insert(phys);
+                }
                 self.entities.push(EntityInfo {
                     entity: e,
                     boundary,
@@ -668,6 +764,10 @@ impl Reader {
                 _ => parse_at(l[4], "an elementary tag", ln)?,
             };
             let e = entity(t, dim as i64, etag)?;
+            if ntags >= 2 && !self.physical_tags.contains_key(&e) {
+                let p: i64 = parse_at(l[3], "a physical tag", ln)?;
+                self.physical_tags.insert(e, vec![p]);
+            }
             idx.clear();
             for tok in &l[3 + ntags..3 + ntags + k] {
                 idx.push(self.node_index(tok, t)?);
@@ -675,6 +775,30 @@ impl Reader {
             self.push(&idx, e, true);
         }
         end_section(t, "Elements")
+    }
+
+    /// `$PhysicalNames`, read loosely (names only label entities): a
+    /// count, then `dim tag "name"` lines, the name being what lies between
+    /// the first and the last `"` of the line (Gmsh's names hold no `"`); a
+    /// line that does not read so is skipped.
+    fn physical_names(&mut self, t: &mut Text) -> Result<(), ParseError> {
+        while let Some(l) = t.next_line() {
+            if l == "$EndPhysicalNames" {
+                return Ok(());
+            }
+            let mut tok = l.split_whitespace();
+            let dim = tok.next().and_then(|s| s.parse::<u8>().ok());
+            let tag = tok.next().and_then(|s| s.parse::<i64>().ok());
+            let (Some(dim), Some(tag), Some(a), Some(b)) = (dim, tag, l.find('"'), l.rfind('"'))
+            else {
+                continue;
+            };
+            if dim <= 3 && b > a {
+                self.physical_names
+                    .insert((dim, tag), l[a + 1..b].to_string());
+            }
+        }
+        Err(t.eof("$EndPhysicalNames"))
     }
 
     /// One `$NodeData` section: string tags (the first is the name), real
@@ -746,6 +870,21 @@ impl Reader {
         infer_node_entities(&mut mesh, &known);
         mesh.entities = self.entities;
         complete_entities(&mut mesh);
+        // Names: the first named physical group of each entity, except the
+        // default name of the entity itself (what the writer gives an
+        // unnamed entity), so a written mesh reads back as it was.
+        for e in &mut mesh.entities {
+            let Some(tags) = self.physical_tags.get(&e.entity) else {
+                continue;
+            };
+            let name = tags
+                .iter()
+                .find_map(|&p| self.physical_names.get(&(e.entity.dim, p)))
+                .filter(|n| !n.is_empty() && **n != default_name(e.entity));
+            if let Some(n) = name {
+                e.name = Some(n.clone());
+            }
+        }
         Ok(mesh)
     }
 }
@@ -769,9 +908,47 @@ fn boundary_tags(tok: &[&str]) -> Option<Vec<i32>> {
         .collect()
 }
 
+/// Physical tags from the tokens after an entity tag in MSH 4.1
+/// `$Entities`: after 3 coordinates (a point) or 6 bounding-box numbers.
+fn entity_physical_tags(tok: &[&str], point: bool) -> Option<Vec<i64>> {
+    let at = if point { 3 } else { 6 };
+    let n: usize = tok.get(at)?.parse().ok()?;
+    tok.get(at + 1..at + 1 + n)?
+        .iter()
+        .map(|s| s.parse().ok())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn physical_names_are_safe_in_quotes() {
+        let info = |name: Option<&str>| EntityInfo {
+            entity: EntityRef::new(3, 2),
+            boundary: vec![],
+            name: name.map(str::to_string),
+        };
+        assert_eq!(physical_name(&info(None)), "volume 3");
+        assert_eq!(physical_name(&info(Some("  "))), "volume 3");
+        assert_eq!(physical_name(&info(Some("a \"b\"\\c\td"))), "a 'b'/c d");
+        let long = "é".repeat(300);
+        let n = physical_name(&info(Some(&long)));
+        assert!(n.len() <= MAX_NAME && n.chars().all(|c| c == 'é'), "{n}");
+        assert_eq!(default_name(EntityRef::new(0, 0)), "point 1");
+        assert_eq!(default_name(EntityRef::new(1, 6)), "edge 7");
+        assert_eq!(default_name(EntityRef::new(2, 11)), "face 12");
+    }
+
+    #[test]
+    fn physical_tags_of_points_and_others() {
+        let pt: Vec<&str> = "0 0 0 2 5 6".split(' ').collect();
+        assert_eq!(entity_physical_tags(&pt, true), Some(vec![5, 6]));
+        let c: Vec<&str> = "0 0 0 1 1 1 1 7 2 1 -2".split(' ').collect();
+        assert_eq!(entity_physical_tags(&c, false), Some(vec![7]));
+        assert_eq!(entity_physical_tags(&c[..3], false), None);
+    }
 
     #[test]
     fn boundary_tags_are_found_after_physical_tags() {

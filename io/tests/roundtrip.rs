@@ -41,7 +41,7 @@ fn assert_same(a: &Mesh, b: &Mesh) {
 }
 
 #[test]
-fn msh_keeps_everything_but_names() {
+fn msh_keeps_everything() {
     let m = sample_mesh();
     let (_d, _p, back) = roundtrip(&m, "a.msh");
     assert_same(&m, &back);
@@ -50,6 +50,7 @@ fn msh_keeps_everything_but_names() {
     for (x, y) in m.entities.iter().zip(&back.entities) {
         assert_eq!(x.entity, y.entity);
         assert_eq!(x.boundary, y.boundary, "{:?}", x.entity);
+        assert_eq!(x.name, y.name, "{:?}", x.entity);
     }
 }
 
@@ -63,9 +64,9 @@ fn msh_layout() {
     // Blocks: 4 vertices + volume for nodes; 4 points + 4 lines + 1 + 1 (4 + 4 + 2 + 6 elements).
     assert!(text.contains("$Nodes\n5 8 1 8\n"), "{text}");
     assert!(text.contains("$Elements\n10 16 1 16\n"), "{text}");
-    // Edge 1 (tag 1) is bounded by points 1 and -2.
+    // Edge 1 (tag 1), in physical group 1, is bounded by points 1 and -2.
     assert!(
-        text.contains("\n1 0.3333333333333333 -2.5 0.1 1.0333333333333332 -2.5 0.1 0 2 1 -2\n"),
+        text.contains("\n1 0.3333333333333333 -2.5 0.1 1.0333333333333332 -2.5 0.1 1 1 2 1 -2\n"),
         "{text}"
     );
 }
