@@ -17,6 +17,10 @@ The cases (all with `--threads 1`, written as .msh):
   step3d  every solid fixture as tetrahedra (`--dim 3`), as
           bench/run_step_3d.py runs it.
 
+The hashes are of the written .msh files, so a change of the MSH writer
+itself changes every one: check the meshing change with the old writer
+first, then record again.
+
 `check` exits 1 when a hash differs or a case that succeeded now fails, and
 prints the cases that became slower than `--slower` (default 1.25) times the
 recorded wall time (a warning: timing on a shared machine is noisy, rerun

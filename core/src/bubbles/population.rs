@@ -121,14 +121,7 @@ pub fn control<C: Carrier>(
         }
         let (pi, di) = (sys.pos[i], sys.d[i]);
         let nbrs = &adj[deg[i] as usize..deg[i + 1] as usize];
-        let open_ratio: f64 = nbrs
-            .iter()
-            .map(|&j| {
-                let j = j as usize;
-                let r = (sys.pos[j] - pi).norm();
-                ((di + 0.5 * sys.d[j] - r) / (0.5 * di)).max(0.0)
-            })
-            .sum();
+        let open_ratio = overlap_ratio(sys, i, nbrs);
         let (t1, t2) = sys.carrier.frame(sys.params[i]);
         angles.clear();
         for &j in nbrs {
@@ -383,14 +376,7 @@ pub fn control_volume<C: Carrier>(
         }
         let (pi, di) = (sys.pos[i], sys.d[i]);
         let nbrs = &adj[deg[i] as usize..deg[i + 1] as usize];
-        let open_ratio: f64 = nbrs
-            .iter()
-            .map(|&j| {
-                let j = j as usize;
-                let r = (sys.pos[j] - pi).norm();
-                ((di + 0.5 * sys.d[j] - r) / (0.5 * di)).max(0.0)
-            })
-            .sum();
+        let open_ratio = overlap_ratio(sys, i, nbrs);
         if open_ratio >= SEARCH_3D {
             continue;
         }
@@ -454,6 +440,20 @@ pub fn control_volume<C: Carrier>(
         }
     }
     Ok(apply(sys, to_delete, new.bubbles))
+}
+
+/// The overlap ratio of bubble `i` with its neighbours `nbrs` (§4.7):
+/// Σ_j max(0, (d_i + d_j/2 − r_ij) / (d_i/2)), how much of its neighbourhood
+/// the neighbours fill; a small value means room for a new bubble.
+fn overlap_ratio<C: Carrier>(sys: &System<'_, C>, i: usize, nbrs: &[u32]) -> f64 {
+    let (pi, di) = (sys.pos[i], sys.d[i]);
+    nbrs.iter()
+        .map(|&j| {
+            let j = j as usize;
+            let r = (sys.pos[j] - pi).norm();
+            ((di + 0.5 * sys.d[j] - r) / (0.5 * di)).max(0.0)
+        })
+        .sum()
 }
 
 #[cfg(test)]

@@ -168,34 +168,12 @@ pub fn connect_volume(
         let missing: Vec<usize> = (0..boundary.len()).filter(|&k| !found[k]).collect();
         if !missing.is_empty() {
             if round == RECOVERY_ROUNDS {
-                let p = pts[boundary[missing[0]][0] as usize];
-                return Err(Connect3dError::NotConforming {
-                    missing: missing.len(),
-                    x: p.x,
-                    y: p.y,
-                    z: p.z,
-                    triangles: missing
-                        .iter()
-                        .take(MAX_REPORTED)
-                        .map(|&k| k as u32)
-                        .collect(),
-                });
+                return Err(not_conforming(pts, boundary, &missing));
             }
             let before = removed;
             remove_blockers(pts, n_fixed, boundary, &missing, &mut kept, &mut removed);
             if removed == before {
-                let p = pts[boundary[missing[0]][0] as usize];
-                return Err(Connect3dError::NotConforming {
-                    missing: missing.len(),
-                    x: p.x,
-                    y: p.y,
-                    z: p.z,
-                    triangles: missing
-                        .iter()
-                        .take(MAX_REPORTED)
-                        .map(|&k| k as u32)
-                        .collect(),
-                });
+                return Err(not_conforming(pts, boundary, &missing));
             }
             continue;
         }
@@ -321,19 +299,26 @@ fn flood_inside(
         }
     }
     if used.len() != boundary.len() {
-        let k = (0..boundary.len()).find(|k| !used.contains(k)).unwrap_or(0);
-        let p = pts[boundary[k][0] as usize];
-        return Err(Connect3dError::NotConforming {
-            missing: boundary.len() - used.len(),
-            x: p.x,
-            y: p.y,
-            z: p.z,
-            triangles: (0..boundary.len())
-                .filter(|k| !used.contains(k))
-                .take(MAX_REPORTED)
-                .map(|k| k as u32)
-                .collect(),
-        });
+        let missing: Vec<usize> = (0..boundary.len()).filter(|k| !used.contains(k)).collect();
+        return Err(not_conforming(pts, boundary, &missing));
     }
     Ok(inside)
+}
+
+/// The error for boundary triangles `missing` (indices into `boundary`)
+/// that are not faces of the tetrahedralization: how many, a point of the
+/// first, and at most [`MAX_REPORTED`] of them for refinement.
+fn not_conforming(pts: &[P3], boundary: &[[u32; 3]], missing: &[usize]) -> Connect3dError {
+    let p = pts[boundary[missing[0]][0] as usize];
+    Connect3dError::NotConforming {
+        missing: missing.len(),
+        x: p.x,
+        y: p.y,
+        z: p.z,
+        triangles: missing
+            .iter()
+            .take(MAX_REPORTED)
+            .map(|&k| k as u32)
+            .collect(),
+    }
 }
