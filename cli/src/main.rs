@@ -563,7 +563,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
         return Err(f);
     }
     let title = a.input.display().to_string();
-    let low = low_quality_faces(&mesh);
+    let low = quality::poor_elements(&mesh, quality::POOR_Q);
     let t_write = Instant::now();
     stage_output(
         &mut out,
@@ -594,6 +594,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
             "engine": report,
             "step": step_info,
             "quality": q,
+            "poor_elements": low,
             "time_mesh_s": t_mesh,
             "time_write_s": write_s,
         });
@@ -1126,7 +1127,7 @@ fn run_quality(a: QualityArgs) -> Result<(), CliError> {
     }
     out.commit().map_err(CliError::Write)?;
     println!("{}", q.table());
-    warn_low_quality(&low_quality_faces(&mesh));
+    warn_low_quality(&quality::poor_elements(&mesh, quality::POOR_Q));
     Ok(())
 }
 
@@ -1179,52 +1180,25 @@ fn stage_bytes(out: &mut OutputSet, path: &Path, bytes: &[u8]) -> Result<(), Cli
     out.bytes(path, bytes).map_err(CliError::Write)
 }
 
-/// Elements of radius ratio below this are reported on stderr.
-const POOR_QUALITY: f64 = 0.01;
-
-/// Per entity with elements of radius ratio below [`POOR_QUALITY`]: its
-/// description, how many and the worst ratio.
-fn low_quality_faces(mesh: &Mesh) -> Vec<(String, usize, f64)> {
-    use std::collections::BTreeMap;
-    let mut by: BTreeMap<(u8, u32), (usize, f64)> = BTreeMap::new();
-    let mut note = |e: bubblemesh_core::model::EntityRef, q: f64| {
-        if q.is_nan() || q < POOR_QUALITY {
-            let s = by.entry((e.dim, e.id)).or_insert((0, f64::INFINITY));
-            s.0 += 1;
-            s.1 = s.1.min(if q.is_nan() { 0.0 } else { q });
-        }
-    };
-    for t in &mesh.triangles {
-        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
-        note(
-            t.entity,
-            bubblemesh_viz::geometry::triangle_q(&p[0], &p[1], &p[2]),
-        );
-    }
-    for t in &mesh.tetrahedra {
-        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
-        note(t.entity, bubblemesh_viz::geometry::tet_q(&p));
-    }
-    by.into_iter()
-        .map(|((dim, id), (n, worst))| {
-            let kind = if dim == 3 { "volume" } else { "face" };
-            let name = mesh
-                .entities
-                .iter()
-                .find(|e| e.entity.dim == dim && e.entity.id == id)
-                .and_then(|e| e.name.clone())
-                .map(|n| format!(" '{n}'"))
-                .unwrap_or_default();
-            (format!("{kind} {id}{name}"), n, worst)
-        })
-        .collect()
-}
-
-fn warn_low_quality(low: &[(String, usize, f64)]) {
-    for (what, n, worst) in low {
+fn warn_low_quality(low: &[quality::PoorElements]) {
+    for p in low {
+        let kind = if p.dim == 3 { "volume" } else { "face" };
+        let name = p
+            .name
+            .as_ref()
+            .map(|n| format!(" '{n}'"))
+            .unwrap_or_default();
         eprintln!(
-            "warning: {what}: {n} element(s) of radius ratio below {POOR_QUALITY} (worst {worst:.2e}); \
-             the geometry is thinner there than the spacing resolves"
+            "warning: {kind} {}{name}: {} element(s) of radius ratio below {} (worst {:.2e} near ({}, {}, {}), \
+             {} thick there); the geometry is thinner there than the spacing resolves",
+            p.id,
+            p.count,
+            quality::POOR_Q,
+            p.worst_q,
+            significant(p.at[0], 6),
+            significant(p.at[1], 6),
+            significant(p.at[2], 6),
+            significant(p.thickness, 3),
         );
     }
 }

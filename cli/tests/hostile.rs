@@ -547,13 +547,38 @@ fn a_strip_thinner_than_the_spacing_warns_naming_the_face() {
          [[0, 0], [1, 0], [1, 1e-7], [0, 1e-7]] }\n",
     );
     let out = dir.path().join("s.msh");
-    let o = run(&["mesh", s(&input), "-o", s(&out), "--size", "0.1", "-q"]);
+    let report = dir.path().join("s.json");
+    let o = run(&[
+        "mesh",
+        s(&input),
+        "-o",
+        s(&out),
+        "--size",
+        "0.1",
+        "-q",
+        "--report",
+        s(&report),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let e = stderr(&o);
     assert!(
         e.contains("warning") && e.contains("face 0 'strip'") && e.contains("radius ratio below"),
         "{e}"
     );
+    // the report names the face, where its worst element is and how thin
+    // the strip is there
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let p = &r["poor_elements"][0];
+    assert_eq!(
+        (p["dim"].as_u64(), p["id"].as_u64(), p["name"].as_str()),
+        (Some(2), Some(0), Some("strip")),
+        "{p}"
+    );
+    let thick = p["thickness"].as_f64().unwrap();
+    assert!(thick > 0.0 && thick <= 1.0001e-7, "thickness {thick}");
+    let y = p["at"][1].as_f64().unwrap();
+    assert!((0.0..=1e-7).contains(&y), "at {}", p["at"]);
     // a good mesh gives no such warning
     let sq = square_in(dir.path());
     let o = run(&["mesh", s(&sq), "-o", s(&out), "--size", "0.1", "-q"]);

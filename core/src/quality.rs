@@ -183,6 +183,113 @@ pub struct QualityReport {
     pub spacing: Option<SpacingConformance>,
 }
 
+/// The radius ratio below which [`poor_elements`] reports an element: a
+/// triangle of q 0.01 has a smallest angle of about 0.3°.
+pub const POOR_Q: f64 = 0.01;
+
+/// The elements of one entity whose radius ratio is below a threshold
+/// ([`poor_elements`]): where the geometry is thinner than the spacing
+/// resolves, the mesh must have such elements (a 0.5 chamfer meshed at
+/// d = 1.1), and the user is told where rather than left to find them.
+#[derive(Serialize, Clone, Debug, PartialEq)]
+pub struct PoorElements {
+    /// Dimension of the entity: 2 face, 3 volume.
+    pub dim: u8,
+    /// Its id in the model.
+    pub id: u32,
+    /// Its name in the model, if any.
+    pub name: Option<String>,
+    /// How many of its elements are below the threshold (degenerate ones
+    /// included).
+    pub count: usize,
+    /// The smallest radius ratio among them (0 for a degenerate element,
+    /// negative for an inverted tetrahedron).
+    pub worst_q: f64,
+    /// The centroid of the worst element, in model coordinates.
+    pub at: [f64; 3],
+    /// The worst element's smallest height (triangle: 2·area / longest
+    /// edge; tetrahedron: 3·volume / largest face area), in model units:
+    /// about the thickness of the feature that forced it.
+    pub thickness: f64,
+}
+
+/// Per face and per volume with elements of radius ratio below `threshold`
+/// (default use: [`POOR_Q`]), the count, the worst element, where it is and
+/// the feature size that forced it; ordered by dimension and id.
+pub fn poor_elements(mesh: &Mesh, threshold: f64) -> Vec<PoorElements> {
+    let mut by: BTreeMap<(u8, u32), PoorElements> = BTreeMap::new();
+    let mut note = |e: EntityRef, q: f64, p: &[P3], thickness: f64| {
+        let q = if q.is_nan() { 0.0 } else { q };
+        if q >= threshold {
+            return;
+        }
+        let s = by.entry((e.dim, e.id)).or_insert(PoorElements {
+            dim: e.dim,
+            id: e.id,
+            name: None,
+            count: 0,
+            worst_q: f64::INFINITY,
+            at: [0.0; 3],
+            thickness: 0.0,
+        });
+        s.count += 1;
+        if q < s.worst_q {
+            s.worst_q = q;
+            let c = p.iter().fold(V3::zeros(), |a, x| a + x.coords) / p.len() as f64;
+            s.at = [c.x, c.y, c.z];
+            s.thickness = thickness;
+        }
+    };
+    for t in &mesh.triangles {
+        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        let twice_area = (p[1] - p[0]).cross(&(p[2] - p[0])).norm();
+        let longest = [
+            (p[1] - p[0]).norm(),
+            (p[2] - p[1]).norm(),
+            (p[0] - p[2]).norm(),
+        ]
+        .into_iter()
+        .fold(0.0, f64::max);
+        let h = if longest > 0.0 {
+            twice_area / longest
+        } else {
+            0.0
+        };
+        note(
+            t.entity,
+            crate::measure::triangle_radius_ratio(&p[0], &p[1], &p[2]),
+            &p,
+            h,
+        );
+    }
+    for t in &mesh.tetrahedra {
+        let p = t.nodes.map(|i| mesh.nodes[i as usize].pos);
+        let vol6 = crate::measure::tet_volume6(&p[0], &p[1], &p[2], &p[3]).abs();
+        let largest = crate::measure::TET_FACES
+            .iter()
+            .map(|f| 0.5 * (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]])).norm())
+            .fold(0.0, f64::max);
+        // 3·V / A with V = vol6 / 6
+        let h = if largest > 0.0 {
+            0.5 * vol6 / largest
+        } else {
+            0.0
+        };
+        let q = crate::measure::tet_radius_ratio(&p[0], &p[1], &p[2], &p[3]);
+        note(t.entity, q, &p, h);
+    }
+    by.into_values()
+        .map(|mut s| {
+            s.name = mesh
+                .entities
+                .iter()
+                .find(|e| e.entity.dim == s.dim && e.entity.id == s.id)
+                .and_then(|e| e.name.clone());
+            s
+        })
+        .collect()
+}
+
 /// Analyses `mesh`; with a spacing, also the edge-length conformance to it.
 ///
 /// Element node indices must be `< mesh.nodes.len()` (the [`Mesh`]
@@ -701,6 +808,51 @@ mod tests {
     use super::*;
     use crate::mesh::{Element, Node};
     use crate::spacing::Constant;
+
+    /// A face with one sliver triangle (height 1e-3 on a base of 1) and a
+    /// face of good triangles: only the first is reported, with the
+    /// sliver's centroid and its height as the thickness; a flat
+    /// tetrahedron is reported for its volume the same way.
+    #[test]
+    fn poor_elements_name_the_entity_the_place_and_the_thickness() {
+        let node = |x: f64, y: f64, z: f64| Node {
+            pos: P3::new(x, y, z),
+            entity: EntityRef::new(2, 0),
+            params: [0.0; 2],
+        };
+        let tri = |n: [u32; 3], f: u32| Element {
+            nodes: n,
+            entity: EntityRef::new(2, f),
+        };
+        let mesh = Mesh {
+            nodes: vec![
+                node(0.0, 0.0, 0.0),
+                node(1.0, 0.0, 0.0),
+                node(0.5, 1e-3, 0.0),
+                node(0.5, 0.866, 0.0),
+                node(0.5, 0.3, 1e-3),
+            ],
+            triangles: vec![tri([0, 1, 2], 0), tri([0, 1, 3], 1)],
+            tetrahedra: vec![Element {
+                nodes: [0, 1, 3, 4],
+                entity: EntityRef::new(3, 0),
+            }],
+            ..Default::default()
+        };
+        let poor = poor_elements(&mesh, POOR_Q);
+        assert_eq!(poor.len(), 2, "{poor:?}");
+        let f = &poor[0];
+        assert_eq!((f.dim, f.id, f.count), (2, 0, 1));
+        assert!(f.worst_q > 0.0 && f.worst_q < POOR_Q, "{}", f.worst_q);
+        assert!((f.thickness - 1e-3).abs() < 1e-9, "{}", f.thickness);
+        assert!((f.at[0] - 0.5).abs() < 1e-12 && (f.at[1] - 1e-3 / 3.0).abs() < 1e-12);
+        let v = &poor[1];
+        assert_eq!((v.dim, v.id, v.count), (3, 0, 1));
+        // the tet's height over its base triangle (0, 1, 3) is the 1e-3 of node 4
+        assert!((v.thickness - 1e-3).abs() < 1e-6, "{}", v.thickness);
+        // a threshold below every element reports nothing
+        assert!(poor_elements(&mesh, 0.0).is_empty());
+    }
 
     /// The bucketed [`sorted_edges`] gives exactly the order of one sort of
     /// every (edge, element) pair, shared edges and gaps in the node

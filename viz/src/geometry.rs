@@ -30,10 +30,6 @@ pub fn tet_radius_ratio(p: &[P3; 4]) -> f64 {
     clip01(tet_radius_ratio(&p[0], &p[1], &p[2], &p[3]).abs())
 }
 
-/// The former name of [`tet_radius_ratio`], kept for callers not yet
-/// renamed.
-pub use self::tet_radius_ratio as tet_q;
-
 /// A face a picture draws: three node ids and the element it belongs to.
 #[derive(Clone, Copy, Debug)]
 pub struct DrawFace {
