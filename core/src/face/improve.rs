@@ -541,3 +541,76 @@ fn relax_edges<C: Carrier>(
     }
     Ok(movers)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bubbles::testing::{hex_fill, square_system};
+    use crate::face::connect::triangulate;
+    use crate::spacing::Constant;
+
+    fn quality(sys: &System<'_, impl Carrier>, tris: &[[usize; 3]]) -> (f64, f64) {
+        let q: Vec<f64> = tris
+            .iter()
+            .map(|t| radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]))
+            .collect();
+        let min = q.iter().copied().fold(f64::INFINITY, f64::min);
+        (min, q.iter().sum::<f64>() / q.len() as f64)
+    }
+
+    /// On a jittered lattice in the unit square, the improvement raises
+    /// both the worst and the mean radius ratio, keeps every triangle
+    /// counter-clockwise in (u,v), keeps the boundary bubbles where they
+    /// are and the boundary segments as edges.
+    #[test]
+    fn improvement_raises_the_worst_and_the_mean_and_keeps_the_mesh_valid() {
+        let s = Constant(0.1);
+        let mut sys = square_system(&s);
+        let nf = sys.n_fixed;
+        hex_fill(&mut sys, 0.1, 0.1, |_, _| false);
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut jitter = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.05
+        };
+        for i in nf..sys.n() {
+            let (dx, dy) = (jitter(), jitter());
+            sys.params[i] = [sys.params[i][0] + dx, sys.params[i][1] + dy];
+            sys.pos[i] = P3::new(sys.params[i][0], sys.params[i][1], 0.0);
+        }
+        let boundary: Vec<[usize; 2]> = (0..nf).map(|k| [k, (k + 1) % nf]).collect();
+        let mut tris = triangulate(&sys.params, &boundary, &boundary, |c| {
+            (0.0..=1.0).contains(&c[0]) && (0.0..=1.0).contains(&c[1])
+        })
+        .unwrap();
+        let fixed_before: Vec<P3> = sys.pos[..nf].to_vec();
+        let (min0, mean0) = quality(&sys, &tris);
+        let n_tris = tris.len();
+        improve(&mut sys, &mut tris, &boundary, 6).unwrap();
+        let (min1, mean1) = quality(&sys, &tris);
+        assert!(min1 >= min0, "worst {min0} -> {min1}");
+        assert!(mean1 > mean0, "mean {mean0} -> {mean1}");
+        assert_eq!(tris.len(), n_tris, "flips keep the triangle count");
+        assert_eq!(&sys.pos[..nf], &fixed_before[..], "boundary bubbles moved");
+        for t in &tris {
+            let [a, b, c] = t.map(|k| sys.params[k]);
+            assert!(
+                orient_uv(a, b, c) > 0.0,
+                "triangle {t:?} is not counter-clockwise"
+            );
+        }
+        let edges: HashSet<(usize, usize)> = tris
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        for s in &boundary {
+            assert!(
+                edges.contains(&(s[0].min(s[1]), s[0].max(s[1]))),
+                "boundary segment {s:?} lost"
+            );
+        }
+    }
+}
