@@ -127,26 +127,29 @@ fn paths_in(code: &str) -> Vec<String> {
         }
     }
     // inline paths: crate::a::b, super::a
-    let bytes = code.as_bytes();
     for key in ["crate::", "super::"] {
-        let mut from = 0;
-        while let Some(i) = code[from..].find(key) {
-            let s = from + i;
-            let ok = s == 0
-                || !(bytes[s - 1].is_ascii_alphanumeric()
-                    || bytes[s - 1] == b'_'
-                    || bytes[s - 1] == b':');
-            let mut e = s;
-            while e < bytes.len()
-                && (bytes[e].is_ascii_alphanumeric() || bytes[e] == b'_' || bytes[e] == b':')
-            {
-                e += 1;
-            }
-            if ok {
-                out.push(code[s..e].trim_end_matches(':').to_string());
-            }
-            from = e.max(s + key.len());
+        out.extend(paths_starting(code, key));
+    }
+    out
+}
+
+/// Every whole path in `code` that starts with `key` (`crate::`, `tet::`),
+/// without a trailing `::`: `key` must not continue an identifier or path.
+fn paths_starting(code: &str, key: &str) -> Vec<String> {
+    let bytes = code.as_bytes();
+    let in_path = |b: u8| b.is_ascii_alphanumeric() || b == b'_' || b == b':';
+    let mut out = Vec::new();
+    let mut from = 0;
+    while let Some(i) = code[from..].find(key) {
+        let s = from + i;
+        let mut e = s;
+        while e < bytes.len() && in_path(bytes[e]) {
+            e += 1;
         }
+        if s == 0 || !in_path(bytes[s - 1]) {
+            out.push(code[s..e].trim_end_matches(':').to_string());
+        }
+        from = e.max(s + key.len());
     }
     out
 }
@@ -154,33 +157,12 @@ fn paths_in(code: &str) -> Vec<String> {
 /// Paths that start at a child module of `here` (`tet::odt::smooth` in
 /// `volume/mod.rs`), written as `self::…`.
 fn child_paths(code: &str, here: &[String], modules: &BTreeSet<Vec<String>>) -> Vec<String> {
-    let bytes = code.as_bytes();
-    let mut out = Vec::new();
-    for m in modules {
-        if m.len() != here.len() + 1 || m[..here.len()] != *here {
-            continue;
-        }
-        let key = format!("{}::", m.last().unwrap());
-        let mut from = 0;
-        while let Some(i) = code[from..].find(&key) {
-            let s = from + i;
-            let ok = s == 0
-                || !(bytes[s - 1].is_ascii_alphanumeric()
-                    || bytes[s - 1] == b'_'
-                    || bytes[s - 1] == b':');
-            let mut e = s;
-            while e < bytes.len()
-                && (bytes[e].is_ascii_alphanumeric() || bytes[e] == b'_' || bytes[e] == b':')
-            {
-                e += 1;
-            }
-            if ok {
-                out.push(format!("self::{}", code[s..e].trim_end_matches(':')));
-            }
-            from = e.max(s + key.len());
-        }
-    }
-    out
+    modules
+        .iter()
+        .filter(|m| m.len() == here.len() + 1 && m[..here.len()] == *here)
+        .flat_map(|m| paths_starting(code, &format!("{}::", m.last().unwrap())))
+        .map(|p| format!("self::{p}"))
+        .collect()
 }
 
 /// The module a path points into: the longest prefix that is a module.
@@ -495,6 +477,10 @@ fn import_scanner_sees_use_trees_and_inline_paths() {
     ] {
         assert!(p.iter().any(|x| x == want), "{want} not in {p:?}");
     }
+    let here = vec!["volume".to_string()];
+    let modules: BTreeSet<Vec<String>> = [here.clone(), vec!["volume".into(), "tet".into()]].into();
+    let c = child_paths("x = tet::odt::smooth(); y = mytet::z;", &here, &modules);
+    assert_eq!(c, vec!["self::tet::odt::smooth".to_string()]);
 }
 
 #[test]
