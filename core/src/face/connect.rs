@@ -279,13 +279,30 @@ pub fn triangulate_surface(
     // --- where the parametrization is poor (around a pole, a hull lid
     // over a left-out cap) the (u,v) triangles are long in model space:
     // drop them and fill the holes in their tangent plane
-    tris.retain(|t| {
+    let mut short = tris.clone();
+    short.retain(|t| {
         (0..3).all(|k| {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             (pts.pos[a] - pts.pos[b]).norm() <= LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
         })
     });
-    fill_caps(pts, &mut tris, boundary)?;
+    let mut tris = match fill_caps(pts, &mut short, boundary) {
+        Ok(()) => short,
+        // The long triangles were not a distortion but the face itself: a
+        // band narrower than the spacing (the wall of a hole of radius
+        // ~d/10), a strip between a fine and a coarse edge. Its hole does
+        // not project onto one tangent plane (a tube seen from its side),
+        // but the (u,v) triangulation covers the face exactly and, on a
+        // regular parametrization, does not fold: keep it, capping only
+        // the left-out singular points.
+        Err(first) => {
+            let mut all = tris;
+            match fill_caps(pts, &mut all, boundary) {
+                Ok(()) => all,
+                Err(_) => return Err(first),
+            }
+        }
+    };
     orient_along_normal(pts, &mut tris);
     Ok(tris)
 }
@@ -546,6 +563,58 @@ fn signed_area(uv: &[[f64; 2]], t: [usize; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The wall of a hole far smaller than the spacing: two rings of five
+    /// nodes 0.001 apart on a cylinder of radius 0.025, with a spacing
+    /// below the rings' segments, so every (u,v) triangle is "long". Its
+    /// hole is a tube that no tangent plane can take; the (u,v)
+    /// triangulation is kept instead: ten triangles, each boundary segment
+    /// in exactly one.
+    #[test]
+    fn band_narrower_than_the_spacing_keeps_its_uv_triangles() {
+        let tau = std::f64::consts::TAU;
+        let (r, h) = (0.025, 0.001);
+        let mut uv = Vec::new();
+        let mut pos = Vec::new();
+        let mut normal = Vec::new();
+        for (v, phase) in [(0.0, 0.0), (h, 0.5)] {
+            for k in 0..5 {
+                let u = (k as f64 + phase) * tau / 5.0;
+                uv.push([u, v]);
+                pos.push(crate::geom::P3::new(r * u.cos(), r * u.sin(), v));
+                normal.push(crate::geom::V3::new(u.cos(), u.sin(), 0.0));
+            }
+        }
+        // bottom ring: u increasing (band on its left); top: decreasing
+        let mut directed: Vec<[usize; 2]> = (0..5).map(|k| [k, (k + 1) % 5]).collect();
+        directed.extend((0..5).map(|k| [5 + (k + 1) % 5, 5 + k]));
+        let d = vec![0.005; 10];
+        let singular = vec![false; 10];
+        let pts = SurfacePoints {
+            uv: &uv,
+            pos: &pos,
+            normal: &normal,
+            d: &d,
+            singular: &singular,
+            periods: [Some(tau), None],
+            origin: [0.0, -1.0],
+            scale: [r, 1.0],
+        };
+        let tris = triangulate_surface(&pts, &directed, &directed).unwrap();
+        assert_eq!(tris.len(), 10);
+        for s in &directed {
+            let uses = tris
+                .iter()
+                .filter(|t| {
+                    (0..3).any(|k| {
+                        let e = [t[k], t[(k + 1) % 3]];
+                        e == *s || e == [s[1], s[0]]
+                    })
+                })
+                .count();
+            assert_eq!(uses, 1, "segment {s:?}");
+        }
+    }
 
     /// Co-circular points (a regular octagon plus centre) are the classic
     /// degenerate in-circle case; the result must still be a valid

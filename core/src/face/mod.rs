@@ -746,10 +746,22 @@ fn face_left_of_periodic_loop(
             }
         }
         let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-        let left = [mid[0] - 0.01 * (b[1] - a[1]), mid[1] + 0.01 * (b[0] - a[0])];
-        let right = [mid[0] + 0.01 * (b[1] - a[1]), mid[1] - 0.01 * (b[0] - a[0])];
-        votes +=
-            region.contains(left[0], left[1]) as i32 - region.contains(right[0], right[1]) as i32;
+        // probes ever closer to the segment until exactly one side is in
+        // the region: a face narrower than 1 % of a segment (a band around
+        // a tiny hole, 0.001 high under segments of 1.26 rad) has both
+        // first probes outside it
+        for eps in [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7] {
+            let left = [mid[0] - eps * (b[1] - a[1]), mid[1] + eps * (b[0] - a[0])];
+            let right = [mid[0] + eps * (b[1] - a[1]), mid[1] - eps * (b[0] - a[0])];
+            let (l, r) = (
+                region.contains(left[0], left[1]),
+                region.contains(right[0], right[1]),
+            );
+            if l != r {
+                votes += if l { 1 } else { -1 };
+                break;
+            }
+        }
     }
     votes >= 0
 }
@@ -989,4 +1001,37 @@ fn growth_start<'s>(
         .map(|s| (score(s), s))
         .max_by(|a, b| a.0 .0.total_cmp(&b.0 .0).then(a.0 .1.total_cmp(&b.0 .1)))
         .map(|(_, s)| s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The wall of a hole of radius 0.025 and height 0.001 (face 7 of
+    /// `as_0086_ski_part_with_hole.step` in `../shared/realstep`): a band
+    /// in (u,v) a thousand times narrower than its boundary segments. Each
+    /// loop's side is found, though probes 1 % of a segment off the loop
+    /// miss the band on both sides (which once put the face on the left of
+    /// both loops, and the face came out without triangles).
+    #[test]
+    fn thin_periodic_band_loop_sides() {
+        let tau = std::f64::consts::TAU;
+        let bottom: Vec<[f64; 2]> = (0..5).map(|k| [k as f64 * tau / 5.0, 0.0]).collect();
+        let top: Vec<[f64; 2]> = (0..5)
+            .rev()
+            .map(|k| [k as f64 * tau / 5.0, 0.001])
+            .collect();
+        let periods = [Some(tau), None];
+        let region = region::Region::periodic(
+            &[bottom.clone(), top.clone()],
+            periods,
+            ([0.0, -1.0], [tau, 1.0]),
+        );
+        assert!(face_left_of_periodic_loop(&region, &bottom, periods));
+        assert!(face_left_of_periodic_loop(&region, &top, periods));
+        let reversed: Vec<[f64; 2]> = bottom.iter().rev().copied().collect();
+        assert!(!face_left_of_periodic_loop(&region, &reversed, periods));
+        let reversed: Vec<[f64; 2]> = top.iter().rev().copied().collect();
+        assert!(!face_left_of_periodic_loop(&region, &reversed, periods));
+    }
 }

@@ -39,6 +39,7 @@
 pub use crate::options::VolumeLattice;
 
 pub(crate) mod connect;
+pub(crate) mod recover;
 pub(crate) mod shell;
 pub(crate) mod tet;
 
@@ -385,6 +386,9 @@ pub struct VolumeReport {
     /// Steiner points added inside slivers that smoothing and flips could
     /// not remove.
     pub steiner: usize,
+    /// Pairs of boundary triangles turned to the Delaunay diagonal of
+    /// their quadrilateral before the connection ([`recover`]).
+    pub boundary_flips: usize,
     pub relax: Option<crate::bubbles::system::RelaxStats>,
 }
 
@@ -557,10 +561,15 @@ pub(super) fn mesh_volume(
         _ => Lattice::Fcc,
     };
     let mut rejected = None;
+    // co-spherical quadrilaterals of the face meshes turned the way the
+    // tetrahedralization will have them (see recover)
+    let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
+    let flips = recover::flip_to_delaunay(mesh, &faces);
     loop {
         let boundary = Boundary::of(&job, mesh)?;
         match attempt(&job, &boundary, lattice, mesh, timings)? {
             Attempt::Done(mut rep) => {
+                rep.boundary_flips = flips;
                 if rejected.is_some() {
                     rep.bcc_rejected = rejected;
                 }

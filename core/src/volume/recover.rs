@@ -1,0 +1,298 @@
+//! Boundary recovery by flips on the surface: before a volume is
+//! tetrahedralized, pairs of its boundary triangles that are not faces of
+//! the Delaunay tetrahedralization of the boundary nodes are turned across
+//! their shared edge when the other diagonal gives two faces that are (not
+//! in the thesis, whose §3.1.3 connection assumes a Delaunay boundary).
+//!
+//! Why: the face meshes are made in each face's own (u,v) or tangent plane,
+//! and where four of their nodes are (nearly) co-spherical — rings of nodes
+//! on a cylinder or cone, a planar quadrilateral strip along a fillet —
+//! either diagonal of the quadrilateral is Delaunay in 2D, while the 3D
+//! Delaunay tetrahedralization (unique under its symbolic perturbation, see
+//! `bubblemesh_delaunay`) picks one. When the face picked the other, the
+//! two triangles are missing from every tetrahedralization, no free bubble
+//! blocks them, and refining the face does not help (the finer rings are
+//! co-spherical again; seen on `as_0042` and `as_0048` of
+//! `../shared/realstep` at diag/20). Turning the diagonal keeps every node
+//! on the CAD face and the face's boundary segments; only which diagonal
+//! of a quadrilateral of the face is an edge changes.
+//!
+//! Invariants: only two triangles of the same face are turned together,
+//! never across a mesh line (a CAD edge or seam), never into an edge the
+//! mesh already has, and only when both new triangles are non-degenerate
+//! and face the way the old pair did; orientation is kept (the pair's
+//! boundary loop a→d→b→c is split along c–d).
+
+use crate::geom::P3;
+use crate::measure::TET_FACES;
+use crate::mesh::Mesh;
+use std::collections::{HashMap, HashSet};
+
+/// At most this many passes over the missing triangles (each pass turns
+/// every pair it can; a later pass sees pairs whose neighbour turned).
+const PASSES: usize = 8;
+
+fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
+    t.sort_unstable();
+    t
+}
+
+fn key(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
+/// Turns pairs of the triangles of `faces` in `mesh` (global node ids)
+/// whose quadrilateral's other diagonal is Delaunay in 3D, as the module
+/// docs say. Returns how many pairs were turned; 0 when the boundary nodes
+/// cannot be tetrahedralized (the volume stage reports that itself).
+pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
+    let idx: Vec<usize> = (0..mesh.triangles.len())
+        .filter(|&k| {
+            let e = mesh.triangles[k].entity;
+            e.dim == 2 && faces.contains(&e.id)
+        })
+        .collect();
+    if idx.is_empty() {
+        return 0;
+    }
+    // the boundary nodes and their Delaunay faces (global ids)
+    let mut nodes: Vec<u32> = idx.iter().flat_map(|&k| mesh.triangles[k].nodes).collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    let coords: Vec<[f64; 3]> = nodes
+        .iter()
+        .map(|&g| {
+            let p = mesh.nodes[g as usize].pos;
+            [p.x, p.y, p.z]
+        })
+        .collect();
+    let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
+        return 0;
+    };
+    if !dt.duplicates.is_empty() {
+        return 0;
+    }
+    let mut delaunay: HashSet<[u32; 3]> = HashSet::with_capacity(4 * dt.tets.len());
+    for t in &dt.tets {
+        for f in &TET_FACES {
+            delaunay.insert(sorted3(f.map(|i| nodes[t[i] as usize])));
+        }
+    }
+    let missing = |mesh: &Mesh, k: usize| !delaunay.contains(&sorted3(mesh.triangles[k].nodes));
+    if !idx.iter().any(|&k| missing(mesh, k)) {
+        return 0;
+    }
+    let lines: HashSet<(u32, u32)> = mesh
+        .lines
+        .iter()
+        .map(|l| key(l.nodes[0], l.nodes[1]))
+        .collect();
+    let pos = |g: u32| -> P3 { mesh.nodes[g as usize].pos };
+    let mut turned = 0;
+    for _ in 0..PASSES {
+        // the triangles of each undirected edge
+        let mut by_edge: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+        for &k in &idx {
+            let t = mesh.triangles[k].nodes;
+            for i in 0..3 {
+                by_edge
+                    .entry(key(t[i], t[(i + 1) % 3]))
+                    .or_default()
+                    .push(k);
+            }
+        }
+        let mut touched: HashSet<usize> = HashSet::new();
+        let mut flips: Vec<(usize, [u32; 3], usize, [u32; 3])> = Vec::new();
+        for &k in &idx {
+            if touched.contains(&k) || !missing(mesh, k) {
+                continue;
+            }
+            let t = mesh.triangles[k];
+            for i in 0..3 {
+                let (a, b, c) = (t.nodes[i], t.nodes[(i + 1) % 3], t.nodes[(i + 2) % 3]);
+                if lines.contains(&key(a, b)) {
+                    continue;
+                }
+                let Some(users) = by_edge.get(&key(a, b)) else {
+                    continue;
+                };
+                if users.len() != 2 {
+                    continue;
+                }
+                let m = if users[0] == k { users[1] } else { users[0] };
+                if touched.contains(&m) || mesh.triangles[m].entity != t.entity {
+                    continue;
+                }
+                // the neighbour as (b, a, d): the shared edge reversed
+                let u = mesh.triangles[m].nodes;
+                let Some(j) = (0..3).find(|&j| u[j] == b && u[(j + 1) % 3] == a) else {
+                    continue;
+                };
+                let d = u[(j + 2) % 3];
+                if d == c || by_edge.contains_key(&key(c, d)) {
+                    continue;
+                }
+                let (t1, t2) = ([a, d, c], [d, b, c]);
+                if !delaunay.contains(&sorted3(t1)) || !delaunay.contains(&sorted3(t2)) {
+                    continue;
+                }
+                // the new pair faces the way the old one did, neither flat
+                let normal = |t: [u32; 3]| {
+                    let (p, q, r) = (pos(t[0]), pos(t[1]), pos(t[2]));
+                    (q - p).cross(&(r - p))
+                };
+                let (n1, n2) = (normal([a, b, c]), normal([b, a, d]));
+                let (l1, l2) = (n1.norm(), n2.norm());
+                if !(l1 > 0.0 && l2 > 0.0) {
+                    continue;
+                }
+                let old = n1 / l1 + n2 / l2;
+                let ok = |t: [u32; 3]| {
+                    let n = normal(t);
+                    let ln = n.norm();
+                    ln > 1e-12 * (l1 + l2) && n.dot(&old) > 0.0
+                };
+                if !ok(t1) || !ok(t2) {
+                    continue;
+                }
+                touched.insert(k);
+                touched.insert(m);
+                flips.push((k, t1, m, t2));
+                break;
+            }
+        }
+        if flips.is_empty() {
+            break;
+        }
+        for (k, t1, m, t2) in flips {
+            mesh.triangles[k].nodes = t1;
+            mesh.triangles[m].nodes = t2;
+            turned += 1;
+        }
+    }
+    turned
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{Element, Node};
+    use crate::model::EntityRef;
+
+    fn node(x: f64, y: f64, z: f64) -> Node {
+        Node {
+            pos: P3::new(x, y, z),
+            entity: EntityRef::new(2, 0),
+            params: [0.0, 0.0],
+        }
+    }
+
+    /// A square pyramid's base split along the diagonal the Delaunay
+    /// tetrahedralization does not use: the base's four corners are
+    /// co-circular, so either diagonal is Delaunay in the plane, and the
+    /// 3D tetrahedralization (two tetrahedra) picks one. The pass turns the
+    /// base to it, keeps its orientation, and leaves the sides alone.
+    #[test]
+    fn cocircular_base_turns_to_the_delaunay_diagonal() {
+        let mut mesh = Mesh::default();
+        for p in [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 0.8],
+        ] {
+            mesh.nodes.push(node(p[0], p[1], p[2]));
+        }
+        let tri = |n: [u32; 3], f: u32| Element {
+            nodes: n,
+            entity: EntityRef::new(2, f),
+        };
+        let coords: Vec<[f64; 3]> = mesh
+            .nodes
+            .iter()
+            .map(|n| [n.pos.x, n.pos.y, n.pos.z])
+            .collect();
+        let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
+        let faces: HashSet<[u32; 3]> = dt
+            .tets
+            .iter()
+            .flat_map(|t| TET_FACES.iter().map(move |f| sorted3(f.map(|i| t[i]))))
+            .collect();
+        // the base (outward: normal −z) along the diagonal Delaunay did
+        // not take
+        let (base, other) = if faces.contains(&[0, 1, 2]) {
+            ([[0, 3, 1], [1, 3, 2]], [[0, 2, 1], [0, 3, 2]])
+        } else {
+            ([[0, 2, 1], [0, 3, 2]], [[0, 3, 1], [1, 3, 2]])
+        };
+        for t in base {
+            mesh.triangles.push(tri(t, 0));
+        }
+        for t in [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]] {
+            mesh.triangles.push(tri(t, 1));
+        }
+        let n = flip_to_delaunay(&mut mesh, &[0, 1].into_iter().collect());
+        assert_eq!(n, 1);
+        let got: HashSet<[u32; 3]> = mesh.triangles[..2]
+            .iter()
+            .map(|t| sorted3(t.nodes))
+            .collect();
+        let want: HashSet<[u32; 3]> = other.iter().map(|&t| sorted3(t)).collect();
+        assert_eq!(got, want);
+        for t in &mesh.triangles {
+            assert!(faces.contains(&sorted3(t.nodes)));
+        }
+        // still outward: the base's normals point down
+        for t in &mesh.triangles[..2] {
+            let [p, q, r] = t.nodes.map(|g| mesh.nodes[g as usize].pos);
+            assert!((q - p).cross(&(r - p)).z < 0.0);
+        }
+    }
+
+    /// The same base with its diagonal on a mesh line (a CAD edge) is never
+    /// turned.
+    #[test]
+    fn a_mesh_line_is_never_turned() {
+        let mut mesh = Mesh::default();
+        for p in [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 0.8],
+        ] {
+            mesh.nodes.push(node(p[0], p[1], p[2]));
+        }
+        let coords: Vec<[f64; 3]> = mesh
+            .nodes
+            .iter()
+            .map(|n| [n.pos.x, n.pos.y, n.pos.z])
+            .collect();
+        let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
+        let has012 = dt.tets.iter().any(|t| {
+            TET_FACES
+                .iter()
+                .any(|f| sorted3(f.map(|i| t[i])) == [0, 1, 2])
+        });
+        let (base, diag) = if has012 {
+            ([[0, 3, 1], [1, 3, 2]], [1, 3])
+        } else {
+            ([[0, 2, 1], [0, 3, 2]], [0, 2])
+        };
+        for t in base {
+            mesh.triangles.push(Element {
+                nodes: t,
+                entity: EntityRef::new(2, 0),
+            });
+        }
+        mesh.lines.push(Element {
+            nodes: diag,
+            entity: EntityRef::new(1, 0),
+        });
+        let before: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
+        assert_eq!(flip_to_delaunay(&mut mesh, &[0].into_iter().collect()), 0);
+        let after: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
+        assert_eq!(before, after);
+    }
+}
