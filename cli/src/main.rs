@@ -866,6 +866,24 @@ fn warn_refined(model: &Model, report: &Report) {
             r.spacing_factor
         );
     }
+    if let Some(r) = report.refined_places.first() {
+        let finest = report
+            .refined_places
+            .iter()
+            .map(|p| p.spacing_factor)
+            .fold(1.0, f64::min);
+        let reason: String = r.reason.chars().take(200).collect();
+        eprintln!(
+            "warning: {} place(s) meshed finer than asked, down to {finest} of the requested spacing, \
+             the first within {:.6} of ({:.6}, {:.6}, {:.6}): the tetrahedralization could not \
+             recover the surface mesh there ({reason})",
+            report.refined_places.len(),
+            r.radius,
+            r.centre[0],
+            r.centre[1],
+            r.centre[2]
+        );
+    }
 }
 
 /// `bubblemesh draw`.

@@ -40,6 +40,10 @@ pub enum MeshError {
         message: String,
         /// The faces to mesh finer.
         faces: Vec<u32>,
+        /// Places to mesh finer instead of whole faces, as balls (centre,
+        /// radius): where boundary triangles are missing from a
+        /// tetrahedralization ([`crate::engine::refine`]).
+        spots: Vec<(crate::geom::P3, f64)>,
     },
     /// A volume's tetrahedralization failed (other than for a boundary
     /// that is not Delaunay enough, which is [`MeshError::Refinable`]).

@@ -71,6 +71,10 @@ pub struct Report {
     /// Faces meshed with a spacing finer than requested because the
     /// requested one could not give them a valid mesh ([`refine`]).
     pub refined: Vec<refine::RefinedFace>,
+    /// Places (balls) meshed finer than requested because boundary
+    /// triangles there were missing from the tetrahedralization
+    /// ([`refine`]).
+    pub refined_places: Vec<refine::RefinedPlace>,
     /// How many times the model was meshed again finer (0: once, as asked).
     pub refinement_rounds: usize,
 }
@@ -99,22 +103,35 @@ pub fn mesh_model(
         match mesh_once(model, &refined, spacing, opts, &refinement) {
             Ok((mesh, mut report)) => {
                 report.refined = refinement.faces(model);
+                report.refined_places = refinement.places();
                 report.refinement_rounds = rounds - 1;
                 report.timings.total_s = t_start.elapsed().as_secs_f64();
                 return Ok((mesh, report));
             }
             Err(failed) => {
                 let reason = failed.error.to_string();
-                if failed.faces.is_empty() && failed.edges.is_empty()
-                    || opts.fast
-                    || rounds > refine::MAX_ROUNDS
-                    || !refinement.bump(
+                let bumped = if failed.spots.is_empty() {
+                    refinement.bump(
                         model,
                         &failed.faces,
                         &failed.reasons,
                         &failed.edges,
                         &reason,
                     )
+                } else {
+                    let d_at = |p: &crate::geom::P3| {
+                        spacing.spacing(&SpacingQuery {
+                            point: *p,
+                            entity: crate::model::EntityRef::new(3, 0),
+                            params: [0.0, 0.0],
+                        })
+                    };
+                    refinement.bump_spots(&failed.spots, d_at, &reason)
+                };
+                if failed.faces.is_empty() && failed.edges.is_empty() && failed.spots.is_empty()
+                    || opts.fast
+                    || rounds > refine::MAX_ROUNDS
+                    || !bumped
                 {
                     return Err(failed.error);
                 }
@@ -131,6 +148,8 @@ struct Failed {
     /// Why each of `faces` failed, where known (else the error's text).
     reasons: Vec<String>,
     edges: Vec<u32>,
+    /// Balls (centre, radius) to mesh finer instead of whole faces.
+    spots: Vec<(crate::geom::P3, f64)>,
 }
 
 impl From<MeshError> for Box<Failed> {
@@ -139,7 +158,9 @@ impl From<MeshError> for Box<Failed> {
         fn culprits(e: &MeshError) -> (Vec<u32>, Vec<u32>) {
             match e {
                 MeshError::In { source, .. } => culprits(source),
-                MeshError::Refinable { faces, .. } => (faces.clone(), vec![]),
+                MeshError::Refinable { faces, spots, .. } if spots.is_empty() => {
+                    (faces.clone(), vec![])
+                }
                 MeshError::Check(c) if c.refinable => {
                     let mut f = Vec::new();
                     let mut e = Vec::new();
@@ -155,12 +176,21 @@ impl From<MeshError> for Box<Failed> {
                 _ => (vec![], vec![]),
             }
         }
+        fn spots_of(e: &MeshError) -> Vec<(crate::geom::P3, f64)> {
+            match e {
+                MeshError::In { source, .. } => spots_of(source),
+                MeshError::Refinable { spots, .. } => spots.clone(),
+                _ => vec![],
+            }
+        }
         let (faces, edges) = culprits(&error);
+        let spots = spots_of(&error);
         Box::new(Failed {
             error,
             faces,
             reasons: vec![],
             edges,
+            spots,
         })
     }
 }
@@ -398,6 +428,7 @@ impl Attempt<'_> {
                 faces,
                 reasons,
                 edges: vec![],
+                spots: vec![],
             }));
         }
         Ok(())

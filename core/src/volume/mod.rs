@@ -441,9 +441,20 @@ fn connect_error(
         .collect();
     faces.sort_unstable();
     faces.dedup();
+    // the missing triangles' circumballs: a finer surface mesh there makes
+    // their balls smaller than the gap to whatever blocks them
+    let spots = triangles
+        .iter()
+        .filter_map(|&k| boundary.get(k as usize))
+        .map(|t| {
+            let [a, b, c] = t.map(|v| mesh.nodes[v as usize].pos);
+            crate::measure::triangle_circumball(&a, &b, &c)
+        })
+        .collect();
     MeshError::Refinable {
         message: e.to_string(),
         faces,
+        spots,
     }
 }
 
