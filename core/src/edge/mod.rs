@@ -11,6 +11,7 @@
 //! change.
 
 pub(crate) mod placement;
+mod warm;
 
 use crate::bubbles::{dynamics, force};
 use crate::error::{check_spacing, MeshError};
@@ -25,6 +26,7 @@ pub(crate) fn mesh_edge(
     ei: usize,
     spacing: &dyn Spacing,
     fast: bool,
+    start: Option<&crate::remesh::warm::EntityStart>,
     mesh: &mut Mesh,
     node_d: &mut Vec<f64>,
 ) -> Result<Vec<u32>, MeshError> {
@@ -55,19 +57,27 @@ pub(crate) fn mesh_edge(
         });
         check_spacing(d, *p, e)
     };
-    let mut ts = if fast {
-        placement::bisect_edge(curve, t0, t1, &mut d_at, closed)?
-    } else {
-        placement::equidistribute_edge(curve, t0, t1, &mut d_at, closed)?
+    let (sd, ed) = (node_d[edge.start as usize], node_d[edge.end as usize]);
+    // a warm start (§4.8) gives the parameters, and the old coordinates of
+    // the bubbles a local re-meshing keeps
+    let placed: Vec<(f64, Option<P3>)> = match start {
+        Some(w) if !fast => warm::place(curve, t0, t1, closed, w, (sd, ed), &mut d_at)?,
+        _ => {
+            let mut ts = if fast {
+                placement::bisect_edge(curve, t0, t1, &mut d_at, closed)?
+            } else {
+                placement::equidistribute_edge(curve, t0, t1, &mut d_at, closed)?
+            };
+            if !fast {
+                relax_chain(curve, t0, t1, sd, ed, &mut ts, &mut d_at)?;
+            }
+            ts.into_iter().map(|t| (t, None)).collect()
+        }
     };
-    if !fast {
-        let (sd, ed) = (node_d[edge.start as usize], node_d[edge.end as usize]);
-        relax_chain(curve, t0, t1, sd, ed, &mut ts, &mut d_at)?;
-    }
-    let mut ids = Vec::with_capacity(ts.len() + 2);
+    let mut ids = Vec::with_capacity(placed.len() + 2);
     ids.push(edge.start);
-    for t in ts {
-        let p = curve.point(t);
+    for (t, kept) in placed {
+        let p = kept.unwrap_or_else(|| curve.point(t));
         let d = d_at(t, &p)?;
         ids.push(mesh.nodes.len() as u32);
         mesh.nodes.push(Node {

@@ -26,6 +26,7 @@ pub(crate) mod improve;
 pub(crate) mod orient;
 pub(crate) mod placement;
 pub(crate) mod region;
+mod warm;
 
 use std::time::Instant;
 
@@ -101,6 +102,10 @@ pub struct FaceReport {
     /// mesh was rebuilt from it (graded planar faces; see `conformal`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lattice_cones: Option<(usize, usize)>,
+    /// A warm start (§4.8): old bubbles kept fixed, old bubbles carried
+    /// over as stage 1, quadtree seeds added where they left room.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warm: Option<[usize; 3]>,
 }
 
 /// The parameter box `(lo, hi)` of a surface (its `domain()` is
@@ -194,12 +199,23 @@ pub(crate) fn mesh_face(
     let region = job.region(&mut boundary)?;
     let (lo, hi) = region.bbox();
     let carrier = OnFace::new(job.surface, region, job.fe);
-    let mut sys = job.stage1(carrier, &boundary, mesh)?;
+    // a warm start (§4.8) replaces stage 1 by the old bubbles
+    let start = (!inputs.opts.fast)
+        .then(|| inputs.opts.warm.as_deref().and_then(|w| w.of(job.fe)))
+        .flatten();
+    let (mut sys, warm_counts, far) = match start {
+        Some(st) => {
+            let (sys, c, far) = job.warm_stage1(carrier, &boundary, mesh, st)?;
+            (sys, Some(c), Some(far))
+        }
+        None => (job.stage1(carrier, &boundary, mesh)?, None, None),
+    };
     let mut fr = FaceReport {
         face: fi as u32,
         name: job.face.name.clone(),
         boundary_bubbles: sys.n_fixed,
         stage1_bubbles: sys.n() - sys.n_fixed,
+        warm: warm_counts.map(|c| [c.kept, c.carried, c.filled]),
         ..Default::default()
     };
     timings.stage1_s += t1.elapsed().as_secs_f64();
@@ -209,10 +225,13 @@ pub(crate) fn mesh_face(
 
     if !inputs.opts.fast {
         let t2 = Instant::now();
-        fr.relax = Some(job.stage2(&mut sys)?);
+        fr.relax = Some(job.stage2(&mut sys, start.is_some())?);
         timings.stage2_s += t2.elapsed().as_secs_f64();
     }
     fr.bubbles = sys.n() - sys.n_fixed;
+    if let Some(far) = far {
+        warm::restore(&mut sys, far);
+    }
 
     let t3 = Instant::now();
     let mut tris = job.connect(&sys, &boundary)?;
@@ -220,7 +239,8 @@ pub(crate) fn mesh_face(
         improve::improve(&mut sys, &mut tris, &boundary.segments, PRM.improve_rounds)?;
     }
     let t_lattice = Instant::now();
-    if job.wants_conformal_lattice(lo, hi) {
+    // a warm start keeps its packing (the old one came from the lattice)
+    if start.is_none() && job.wants_conformal_lattice(lo, hi) {
         if let Some((cones, relax)) =
             conformal_restart(&mut sys, &mut tris, &boundary, job.fe, &inputs.opts.relax)?
         {
@@ -589,7 +609,11 @@ impl<'a> FaceJob<'a> {
     }
 
     /// Stage 2 (§4.3–4.7): relaxation with population control.
-    fn stage2(&self, sys: &mut System<'a, OnFace<'a>>) -> Result<RelaxStats, MeshError> {
+    fn stage2(
+        &self,
+        sys: &mut System<'a, OnFace<'a>>,
+        warm: bool,
+    ) -> Result<RelaxStats, MeshError> {
         let opts = self.inputs.opts;
         // a uniformly spaced face that only bounds a volume stops earlier
         // (see system::PLATEAU_BOUNDARY)
@@ -600,6 +624,15 @@ impl<'a> FaceJob<'a> {
             }
         } else {
             opts.relax
+        };
+        // a warm start is near a balance: a short stage 2 (§4.8.2)
+        let settings = if warm {
+            system::RelaxSettings {
+                max_steps: settings.max_steps.min(crate::remesh::warm::WARM_MAX_STEPS),
+                ..settings
+            }
+        } else {
+            settings
         };
         sys.relax(
             &settings,
@@ -685,6 +718,18 @@ impl<'a> FaceJob<'a> {
             }
         }
         let mut node_of = vec![u32::MAX; sys.n()];
+        // kept bubbles of a warm start become nodes at their old
+        // coordinates (see `warm`)
+        for i in 0..nf {
+            if sys.fixed_ids[i] == warm::KEPT && referenced[i] {
+                node_of[i] = mesh.nodes.len() as u32;
+                mesh.nodes.push(Node {
+                    pos: sys.pos[i],
+                    entity: fe,
+                    params: sys.params[i],
+                });
+            }
+        }
         for i in nf..sys.n() {
             if referenced[i] {
                 node_of[i] = mesh.nodes.len() as u32;
@@ -696,7 +741,7 @@ impl<'a> FaceJob<'a> {
             }
         }
         let global = |l: usize| -> u32 {
-            if l < nf {
+            if l < nf && sys.fixed_ids[l] != warm::KEPT {
                 sys.fixed_ids[l]
             } else {
                 node_of[l]
