@@ -629,6 +629,7 @@ impl<'a> FaceJob<'a> {
         let settings = if warm {
             system::RelaxSettings {
                 max_steps: settings.max_steps.min(crate::remesh::warm::WARM_MAX_STEPS),
+                tol: settings.tol.max(crate::remesh::warm::WARM_TOL),
                 ..settings
             }
         } else {

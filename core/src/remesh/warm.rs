@@ -18,9 +18,14 @@ use crate::remesh::state::{Bubble, EntityState, State};
 use crate::spacing::{Spacing, SpacingQuery};
 
 /// Steps at most of the short stage 2 after a warm start: the old bubbles
-/// are near a balance, so the run stops on the usual small-move tolerance
-/// long before; this only caps an entity that changed a lot.
-pub const WARM_MAX_STEPS: usize = 200;
+/// are near a balance, so the run usually stops on [`WARM_TOL`] before;
+/// this caps the slow creep of a packing that changed a lot.
+pub const WARM_MAX_STEPS: usize = 300;
+
+/// A warm stage 2 has settled when no free bubble moved more than this
+/// fraction of its diameter in a step (stage 2 from scratch: 1e-3; a warm
+/// start only has to settle the footprint of a change).
+pub const WARM_TOL: f64 = 3e-3;
 
 /// Where one entity starts.
 #[derive(Clone, Debug, Default)]
