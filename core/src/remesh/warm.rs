@@ -71,9 +71,11 @@ pub struct Matching {
 /// Why a state cannot warm-start a model.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum PlanError {
-    /// No entity matches: the state is of another model.
-    #[error("the state was saved from another model: none of its {entities} entities matches the input ({example})")]
+    /// Fewer than half the state's entities match: it is of another model.
+    #[error("the state was saved from another model: {matched} of its {entities} entities match the input (fewer than half; first mismatch: {example})")]
     AnotherModel {
+        /// Entities that matched.
+        matched: usize,
         /// Entities in the state.
         entities: usize,
         /// Why the first did not match.
@@ -152,8 +154,11 @@ pub fn plan(
             }
         }
     }
-    if matched.is_empty() {
+    // a state whose entities mostly do not match is of another model (a
+    // change of a design matches all but the few entities it touched)
+    if matched.is_empty() || 2 * matched.len() < state.entities.len() {
         return Err(PlanError::AnotherModel {
+            matched: matched.len(),
             entities: state.entities.len(),
             example: first_reason.unwrap_or_else(|| "the input has no entities".into()),
         });
