@@ -28,9 +28,11 @@ Cases:
   a   plate 2x1 with two holes (examples/plate_two_holes.toml), d = 0.01;
       the first hole moves by 10 % of its radius (x 0.5 -> 0.52)
   a-r the same with --region sphere around the old and the new hole
-  b   a part with one hole diameter changed: CadQuery is not installed in
-      this environment, so two hand-made TOML variants of the plate (first
-      hole radius 0.2 -> 0.22), graded d = 0.006 + 0.01 x
+  b   a CadQuery part regenerated with one hole diameter changed (8 -> 8.4
+      mm): fixtures/remesh/block_hole_8.0.step and _8.4.step, written by
+      fixtures/remesh/cadquery_variants.py; its surfaces, d = 0.8 mm
+  b2  two hand-made TOML variants of the plate (first hole radius 0.2 ->
+      0.22), graded d = 0.006 + 0.01 x
   c   the plate with its spacing refined between the holes:
       d = 0.01 -> min(0.01, 0.005 + 0.025 |x - (1, 0.5)|)
   c-r the same with --region box around the refined zone
@@ -94,12 +96,15 @@ REFINED_NP = "minimum(0.01, 0.005 + 0.025*sqrt((x-1)**2 + (y-0.5)**2))"
 CASES = {
     "a": (plate(), plate(0.52), "0.01", ("0.01", "0.01"), None, 2),
     "a-r": (plate(), plate(0.52), "0.01", ("0.01", "0.01"), "sphere:0.51,0.5,0,0.23", 2),
-    "b": (plate(), plate(0.5, 0.22), "0.006 + 0.01*x", ("0.006 + 0.01*x", "0.006 + 0.01*x"), None, 2),
+    "b": (os.path.join(REPO, "fixtures", "remesh", "block_hole_8.0.step"),
+          os.path.join(REPO, "fixtures", "remesh", "block_hole_8.4.step"),
+          "0.8", ("0.8", "0.8"), None, 2),
+    "b2": (plate(), plate(0.5, 0.22), "0.006 + 0.01*x", ("0.006 + 0.01*x", "0.006 + 0.01*x"), None, 2),
     "c": (plate(), plate(), "0.01", (REFINED, REFINED_NP), None, 2),
     "c-r": (plate(), plate(), "0.01", (REFINED, REFINED_NP), "box:0.75,0.25,-1,1.25,0.75,1", 2),
     "e": (CUBE.format(x=1), CUBE.format(x=1.03), "0.08", ("0.08", "0.08"), None, 3),
 }
-ALL = ["a", "a-r", "b", "c", "c-r", "d", "e"]
+ALL = ["a", "a-r", "b", "b2", "c", "c-r", "d", "e"]
 
 
 def log(msg):
@@ -122,7 +127,7 @@ def meshcheck(mesh, spacing_np, dim):
     if p.returncode != 0:
         return {"error": p.stderr[-800:]}
     j = json.loads(p.stdout)
-    cells = j.get("tetrahedra") if dim == 3 else j.get("triangles")
+    cells = j.get("tets") if dim == 3 else j.get("triangles")
     return {
         "valid": j["validity"]["valid"],
         "q_min": cells["q_min"],
@@ -170,12 +175,16 @@ def one_change(b, out, name, old_text, new_text, old_size, new_size, region, dim
     scratch; returns the record."""
     size, size_np = new_size
     oldf, newf = os.path.join(out, name + "_old.toml"), os.path.join(out, name + "_new.toml")
-    open(newf, "w").write(new_text)
+    if new_text.endswith(".step"):
+        oldf, newf = old_text, new_text
+    else:
+        open(newf, "w").write(new_text)
     state = base_state
     base_msh = os.path.join(out, name + "_base.msh")
     dimf = ["--dim", str(dim)]
     if state is None:
-        open(oldf, "w").write(old_text)
+        if not old_text.endswith(".step"):
+            open(oldf, "w").write(old_text)
         state = os.path.join(out, name + ".state")
         run([b, "mesh", oldf, "-o", base_msh, "--size", old_size, "--threads", "1", "-q",
              "--save-state", state] + dimf)
