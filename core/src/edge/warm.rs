@@ -13,6 +13,7 @@ use crate::error::MeshError;
 use crate::geom::{Curve, P3};
 use crate::remesh::warm::EntityStart;
 
+use super::chain;
 use super::placement;
 
 /// The interior parameters of a warm-started edge on `[t0, t1]`, sorted,
@@ -58,7 +59,7 @@ pub(super) fn place(
             if want.len() != ts.len() {
                 ts = want;
             }
-            super::relax_chain(curve, a, b, da, db, &mut ts, d_at)?;
+            chain::relax_chain(curve, a, b, da, db, &mut ts, d_at)?;
         }
         out.extend(ts.into_iter().map(|t| (t, None)));
         if w[1].2.is_some() {

@@ -31,7 +31,6 @@ mod warm;
 use std::time::Instant;
 
 use crate::bubbles::constraint::{self, Carrier};
-use crate::bubbles::grid;
 use crate::bubbles::system::{self, RelaxStats, System};
 use crate::error::{check_spacing, MeshError};
 use crate::geom::{P3, V3};
@@ -205,7 +204,21 @@ pub(crate) fn mesh_face(
         .flatten();
     let (mut sys, warm_counts, far) = match start {
         Some(st) => {
-            let (sys, c, far) = job.warm_stage1(carrier, &boundary, mesh, st)?;
+            let fixed = warm::Fixed {
+                pos: boundary
+                    .ids
+                    .iter()
+                    .map(|&id| mesh.nodes[id as usize].pos)
+                    .collect(),
+                d: boundary
+                    .ids
+                    .iter()
+                    .map(|&id| inputs.node_d[id as usize])
+                    .collect(),
+                uv: boundary.uv.clone(),
+                ids: boundary.ids.clone(),
+            };
+            let (sys, c, far) = warm::stage1(carrier, inputs.spacing, fixed, st)?;
             (sys, Some(c), Some(far))
         }
         None => (job.stage1(carrier, &boundary, mesh)?, None, None),
@@ -576,7 +589,7 @@ impl<'a> FaceJob<'a> {
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
         let check_seeds = spacing.constant().is_none() || PRM.apex_layer || !surface.is_planar();
-        let seeds = uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
+        let seeds = placement::uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
         let n_fixed = boundary.ids.len();
         let mut sys = System {
             carrier,
@@ -798,69 +811,6 @@ fn face_left_of_periodic_loop(
             region.contains(left[0], left[1]) as i32 - region.contains(right[0], right[1]) as i32;
     }
     votes >= 0
-}
-
-/// The seeds, in order, that do not crowd a fixed bubble or (with
-/// `check_seeds`) an earlier kept seed: closer than 0.75·r0.
-fn uncrowded(
-    all: Vec<placement::Seed>,
-    fixed_pos: &[P3],
-    fixed_d: &[f64],
-    check_seeds: bool,
-) -> Vec<placement::Seed> {
-    let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
-    let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
-    let fixed_grid = grid::Grid::new(fixed_pos, 1.5 * dmin_fixed);
-    let crowds = |p: &P3,
-                  d: f64,
-                  pos: &[P3],
-                  ds: &[f64],
-                  g: &grid::Grid,
-                  reach: f64,
-                  skip: &dyn Fn(usize) -> bool| {
-        let mut hit = false;
-        g.query(p, 0.75 * 0.5 * (d + reach), |j| {
-            let j = j as usize;
-            if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
-                hit = true;
-            }
-        });
-        hit
-    };
-    let mut keep: Vec<bool> = all
-        .iter()
-        .map(|s| {
-            !crowds(
-                &s.pos,
-                s.d,
-                fixed_pos,
-                fixed_d,
-                &fixed_grid,
-                dmax_fixed,
-                &|_| false,
-            )
-        })
-        .collect();
-    if check_seeds {
-        let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
-        let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
-        let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
-        let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
-        let g = grid::Grid::new(&spos, 1.5 * dmin);
-        for i in 0..all.len() {
-            if keep[i] {
-                let earlier_kept = |j: usize| !(j < i && keep[j]);
-                if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
-                    keep[i] = false;
-                }
-            }
-        }
-    }
-    all.into_iter()
-        .zip(keep)
-        .filter(|(_, k)| *k)
-        .map(|(s, _)| s)
-        .collect()
 }
 
 /// Whether a planar face's (u,v) is an isometry (unit, orthogonal partials

@@ -18,12 +18,11 @@ use crate::bubbles::grid;
 use crate::bubbles::system::{self, System};
 use crate::error::{check_spacing, MeshError};
 use crate::geom::{P3, V3};
-use crate::mesh::Mesh;
 use crate::remesh::warm::EntityStart;
-use crate::spacing::SpacingQuery;
+use crate::spacing::{Spacing, SpacingQuery};
 
 use super::carrier::OnFace;
-use super::{placement, uncrowded, Boundary, FaceJob};
+use super::placement::{self, uncrowded};
 
 /// The fixed-bubble id of a kept bubble: not yet a mesh node (see
 /// `FaceJob::emit`).
@@ -40,106 +39,111 @@ pub(super) struct WarmCounts {
     pub filled: usize,
 }
 
-impl<'a> FaceJob<'a> {
-    /// Stage 1 from the old bubbles `start` (see the module docs).
-    pub(super) fn warm_stage1(
-        &self,
-        carrier: OnFace<'a>,
-        boundary: &Boundary,
-        mesh: &Mesh,
-        start: &EntityStart,
-    ) -> Result<(System<'a, OnFace<'a>>, WarmCounts, Far), MeshError> {
-        let (spacing, fe) = (self.inputs.spacing, self.fe);
-        let node_d = self.inputs.node_d;
-        let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
-            let d = spacing.spacing(&SpacingQuery {
-                point: *p,
-                entity: fe,
-                params: uv,
-            });
-            check_spacing(d, *p, fe)
-        };
-        let mut fixed_pos: Vec<P3> = boundary
-            .ids
-            .iter()
-            .map(|&id| mesh.nodes[id as usize].pos)
-            .collect();
-        let mut fixed_d: Vec<f64> = boundary.ids.iter().map(|&id| node_d[id as usize]).collect();
-        let mut fixed_uv = boundary.uv.clone();
-        let mut fixed_ids = boundary.ids.clone();
-        let mut counts = WarmCounts::default();
-        for b in &start.kept {
-            let uv = carrier.region.wrap(b.params);
-            if carrier.contains(uv) {
-                fixed_d.push(d_at(&b.pos, uv)?);
-                fixed_pos.push(b.pos);
-                fixed_uv.push(uv);
-                fixed_ids.push(KEPT);
-                counts.kept += 1;
-            }
+/// The fixed bubbles of a face (its boundary): positions, diameters,
+/// (u,v) and node ids.
+pub(super) struct Fixed {
+    pub pos: Vec<P3>,
+    pub d: Vec<f64>,
+    pub uv: Vec<[f64; 2]>,
+    pub ids: Vec<u32>,
+}
+
+/// Stage 1 from the old bubbles `start` on the face `carrier` holds
+/// bubbles on, after the boundary's `fixed` bubbles (see the module docs).
+pub(super) fn stage1<'a>(
+    carrier: OnFace<'a>,
+    spacing: &'a dyn Spacing,
+    fixed: Fixed,
+    start: &EntityStart,
+) -> Result<(System<'a, OnFace<'a>>, WarmCounts, Far), MeshError> {
+    let fe = carrier.entity();
+    let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
+        let d = spacing.spacing(&SpacingQuery {
+            point: *p,
+            entity: fe,
+            params: uv,
+        });
+        check_spacing(d, *p, fe)
+    };
+    let n_boundary = fixed.ids.len();
+    let Fixed {
+        pos: mut fixed_pos,
+        d: mut fixed_d,
+        uv: mut fixed_uv,
+        ids: mut fixed_ids,
+    } = fixed;
+    let mut counts = WarmCounts::default();
+    for b in &start.kept {
+        let uv = carrier.region.wrap(b.params);
+        if carrier.contains(uv) {
+            fixed_d.push(d_at(&b.pos, uv)?);
+            fixed_pos.push(b.pos);
+            fixed_uv.push(uv);
+            fixed_ids.push(KEPT);
+            counts.kept += 1;
         }
-        let mut carried = Vec::new();
-        for b in &start.free {
-            let uv = carrier.region.wrap(b.params);
-            if carrier.contains(uv) {
-                let p = carrier.point(uv);
-                carried.push(placement::Seed {
-                    pos: p,
-                    params: uv,
-                    d: d_at(&p, uv)?,
-                });
-            }
-        }
-        let carried = uncrowded(carried, &fixed_pos, &fixed_d, true);
-        // the quadtree's seeds survive only where no bubble is near
-        let (lo, hi) = carrier.region.bbox();
-        let d_outside = fixed_d
-            .iter()
-            .chain(carried.iter().map(|s| &s.d))
-            .cloned()
-            .fold(f64::INFINITY, f64::min);
-        let quad = placement::oblique_quadtree(&carrier, lo, hi, None, d_outside, &mut d_at)?;
-        let mut near_pos = fixed_pos.clone();
-        let mut near_d = fixed_d.clone();
-        near_pos.extend(carried.iter().map(|s| s.pos));
-        near_d.extend(carried.iter().map(|s| s.d));
-        let filled = uncrowded(quad, &near_pos, &near_d, true);
-        counts.carried = carried.len();
-        counts.filled = filled.len();
-        let seeds = carried.into_iter().chain(filled);
-        let seeds: Vec<placement::Seed> = seeds.collect();
-        // kept bubbles far from every seed cannot meet a free bubble in a
-        // short stage 2: they wait outside the system (see `restore`)
-        let far = split_far(
-            &mut fixed_pos,
-            &mut fixed_uv,
-            &mut fixed_d,
-            &mut fixed_ids,
-            boundary.ids.len(),
-            &seeds,
-        );
-        let n_fixed = fixed_ids.len();
-        let mut sys = System {
-            carrier,
-            spacing,
-            dim: 2,
-            n_fixed,
-            pos: fixed_pos,
-            params: fixed_uv,
-            vel: vec![V3::zeros(); n_fixed],
-            d: fixed_d,
-            fixed_ids,
-            pressure: if spacing.constant().is_some() {
-                1.0
-            } else {
-                system::PRESSURE
-            },
-        };
-        for s in seeds {
-            sys.push_free(s.pos, s.params, s.d);
-        }
-        Ok((sys, counts, far))
     }
+    let mut carried = Vec::new();
+    for b in &start.free {
+        let uv = carrier.region.wrap(b.params);
+        if carrier.contains(uv) {
+            let p = carrier.point(uv);
+            carried.push(placement::Seed {
+                pos: p,
+                params: uv,
+                d: d_at(&p, uv)?,
+            });
+        }
+    }
+    let carried = uncrowded(carried, &fixed_pos, &fixed_d, true);
+    // the quadtree's seeds survive only where no bubble is near
+    let (lo, hi) = carrier.region.bbox();
+    let d_outside = fixed_d
+        .iter()
+        .chain(carried.iter().map(|s| &s.d))
+        .cloned()
+        .fold(f64::INFINITY, f64::min);
+    let quad = placement::oblique_quadtree(&carrier, lo, hi, None, d_outside, &mut d_at)?;
+    let mut near_pos = fixed_pos.clone();
+    let mut near_d = fixed_d.clone();
+    near_pos.extend(carried.iter().map(|s| s.pos));
+    near_d.extend(carried.iter().map(|s| s.d));
+    let filled = uncrowded(quad, &near_pos, &near_d, true);
+    counts.carried = carried.len();
+    counts.filled = filled.len();
+    let seeds = carried.into_iter().chain(filled);
+    let seeds: Vec<placement::Seed> = seeds.collect();
+    // kept bubbles far from every seed cannot meet a free bubble in a
+    // short stage 2: they wait outside the system (see `restore`)
+    let far = split_far(
+        &mut fixed_pos,
+        &mut fixed_uv,
+        &mut fixed_d,
+        &mut fixed_ids,
+        n_boundary,
+        &seeds,
+    );
+    let n_fixed = fixed_ids.len();
+    let mut sys = System {
+        carrier,
+        spacing,
+        dim: 2,
+        n_fixed,
+        pos: fixed_pos,
+        params: fixed_uv,
+        vel: vec![V3::zeros(); n_fixed],
+        d: fixed_d,
+        fixed_ids,
+        pressure: if spacing.constant().is_some() {
+            1.0
+        } else {
+            system::PRESSURE
+        },
+    };
+    for s in seeds {
+        sys.push_free(s.pos, s.params, s.d);
+    }
+    Ok((sys, counts, far))
 }
 
 /// Kept bubbles set aside during stage 2 (positions, parameters,
