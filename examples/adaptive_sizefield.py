@@ -14,7 +14,11 @@ around it) as $NodeData "error" in a Gmsh MSH 2.2 file; remesh with
         --plugin-arg mesh=indicator.msh --plugin-arg kind=error \\
         --plugin-arg target=T --plugin-arg d_min=... --plugin-arg d_max=...
 
-with a fixed target T (--target, default 0.02). The indicator is spread
+with a fixed target T (--target, default 0.02). Each round after the first
+starts from the previous round's bubbles (thesis §4.8.2: `mesh
+--save-state`, then `bubblemesh remesh STATE square.toml ...` with the same
+flags; --cold meshes every round from scratch); the time of each round is
+printed. The indicator is spread
 over two rings of triangles so that the refined band around the front is
 wider than one old element (a narrower dip in d(x) falls between bubbles).
 Prints the maximum and L2 errors against the number of nodes per round, and
@@ -30,6 +34,7 @@ import argparse
 import os
 import subprocess
 import sys
+import time
 
 import meshio
 import numpy as np
@@ -86,11 +91,17 @@ def read_tris(path):
     return m.points, tris
 
 
-def mesh(bin_, out, extra):
-    cmd = [bin_, "mesh", os.path.join(ROOT, "examples/square.toml"), "-o", out, "-q"] + extra
+def mesh(bin_, out, extra, state=None, save=None):
+    """Meshes the square (from `state` with `remesh` when given, saving
+    the new state to `save`); returns the wall time."""
+    sq = os.path.join(ROOT, "examples/square.toml")
+    cmd = [bin_, "remesh", state, sq] if state else [bin_, "mesh", sq]
+    cmd += ["-o", out, "-q"] + extra + (["--save-state", save] if save else [])
+    t = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"failed: {' '.join(cmd)}\n{r.stderr}")
+    return time.perf_counter() - t
 
 
 def main():
@@ -100,6 +111,7 @@ def main():
     ap.add_argument("--target", type=float, default=0.02)
     ap.add_argument("--bin")
     ap.add_argument("--plugin")
+    ap.add_argument("--cold", action="store_true", help="mesh every round from scratch")
     a = ap.parse_args()
     target_dir = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
     if not (a.bin and a.plugin):
@@ -109,10 +121,11 @@ def main():
     plugin = a.plugin or os.path.join(target_dir, "release/libbubblemesh_plugin_sizefield.so")
     os.makedirs(a.out, exist_ok=True)
 
-    print("adaptive (size-field plugin, kind=error):")
-    print(f"{'round':>5} {'nodes':>7} {'max error':>10} {'L2 error':>10} {'target':>9}")
+    print("adaptive (size-field plugin, kind=error, %s):" % ("cold" if a.cold else "warm starts"))
+    print(f"{'round':>5} {'nodes':>7} {'max error':>10} {'L2 error':>10} {'target':>9} {'time s':>7}")
     cur = os.path.join(a.out, "round0.msh")
-    mesh(bin_, cur, ["--size", "0.05"])
+    state = None if a.cold else os.path.join(a.out, "round0.state")
+    secs = mesh(bin_, cur, ["--size", "0.05"], save=state)
     rows = []
     for k in range(a.rounds + 1):
         pts, tris = read_tris(cur)
@@ -126,16 +139,19 @@ def main():
                 np.maximum.at(node_err, tris[:, j], t)
         target = a.target
         rows.append((len(pts), emax, l2))
-        print(f"{k:>5} {len(pts):>7} {emax:>10.4f} {l2:>10.2e} {target:>9.4f}", flush=True)
+        print(f"{k:>5} {len(pts):>7} {emax:>10.4f} {l2:>10.2e} {target:>9.4f} {secs:>7.3f}",
+              flush=True)
         if k == a.rounds:
             break
         ind = os.path.join(a.out, f"indicator{k}.msh")
         write_indicator(ind, pts, tris, node_err)
         cur = os.path.join(a.out, f"round{k + 1}.msh")
-        mesh(bin_, cur, ["--plugin", plugin, "--plugin-arg", f"mesh={ind}",
-                         "--plugin-arg", "kind=error", "--plugin-arg", f"target={target}",
-                         "--plugin-arg", "max_coarsen=1.5", "--plugin-arg", "d_min=0.0005",
-                         "--plugin-arg", "d_max=0.1"])
+        nxt = None if a.cold else os.path.join(a.out, f"round{k + 1}.state")
+        secs = mesh(bin_, cur, ["--plugin", plugin, "--plugin-arg", f"mesh={ind}",
+                                "--plugin-arg", "kind=error", "--plugin-arg", f"target={target}",
+                                "--plugin-arg", "max_coarsen=1.5", "--plugin-arg", "d_min=0.0005",
+                                "--plugin-arg", "d_max=0.1"], state=state, save=nxt)
+        state = nxt
 
     print("\nuniform meshes:")
     print(f"{'d':>7} {'nodes':>7} {'max error':>10} {'L2 error':>10}")

@@ -27,6 +27,7 @@ use std::time::Instant;
 
 mod error;
 mod frames;
+mod remesh;
 
 use bubblemesh_core::engine::{Event, Integrator, VolumeLattice};
 use bubblemesh_core::quality::{self, QualityReport};
@@ -62,6 +63,23 @@ enum Command {
     Quality(QualityArgs),
     /// Draw any mesh file bubblemesh can read as a picture (.svg .png .html).
     Draw(DrawArgs),
+    /// Mesh INPUT again starting from the bubbles of a state saved by
+    /// `mesh --save-state` (thesis §4.8): matched entities start from their
+    /// old bubbles; with --region only the bubbles near it move.
+    Remesh(RemeshArgs),
+}
+
+#[derive(Parser)]
+struct RemeshArgs {
+    /// The state file written by `mesh --save-state` (or `remesh --save-state`).
+    state: PathBuf,
+    #[command(flatten)]
+    mesh: MeshArgs,
+    /// Local re-meshing: only bubbles in this region (and within 2 spacings
+    /// of it) move, the other nodes are kept exactly:
+    /// box:x0,y0,z0,x1,y1,z1 | sphere:x,y,z,r | faces:3,7.
+    #[arg(long, allow_hyphen_values = true)]
+    region: Option<String>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -237,6 +255,13 @@ struct MeshArgs {
     /// frames of --frames).
     #[arg(long)]
     animate: Option<PathBuf>,
+    /// Save the packed bubbles of every entity here (a bubblemesh-state
+    /// file, docs/state-format.md), for `bubblemesh remesh`.
+    #[arg(long, value_name = "STATE")]
+    save_state: Option<PathBuf>,
+    /// The state and region of `remesh`, filled in by `main`.
+    #[arg(skip)]
+    remesh: Option<remesh::RemeshSpec>,
 }
 
 #[derive(Parser)]
@@ -275,6 +300,17 @@ fn main() -> ExitCode {
             a.plugin_specs = specs;
             run_mesh(a)
         }),
+        Command::Remesh(r) => {
+            let mut a = r.mesh;
+            a.remesh = Some(remesh::RemeshSpec {
+                state: r.state,
+                region: r.region,
+            });
+            plugin_specs(&matches, &a).and_then(|specs| {
+                a.plugin_specs = specs;
+                run_mesh(a)
+            })
+        }
         Command::Quality(a) => run_quality(a),
         Command::Draw(a) => run_draw(a),
     };
@@ -290,7 +326,10 @@ fn main() -> ExitCode {
 /// The plugins to load: each --plugin with the --plugin-arg after it (clap
 /// keeps the positions), then those of --plugin-config.
 fn plugin_specs(matches: &clap::ArgMatches, a: &MeshArgs) -> Result<Vec<PluginSpec>, CliError> {
-    let Some(m) = matches.subcommand_matches("mesh") else {
+    let Some(m) = matches
+        .subcommand_matches("mesh")
+        .or_else(|| matches.subcommand_matches("remesh"))
+    else {
         return Ok(Vec::new());
     };
     let positions =
@@ -551,7 +590,11 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
             .map(|f| CliError::Message(format!("{}: {f}", a.input.display())))
     };
     let spacing: &dyn Spacing = spacing.as_ref();
-    let opts = engine_options(&a, &model, threads)?;
+    let mut opts = engine_options(&a, &model, threads)?;
+    let warm = match &a.remesh {
+        Some(spec) => Some(remesh::prepare(spec, &a.input, &model, spacing, &mut opts)?),
+        None => None,
+    };
     let meshed = mesh_observed(&a, &model, spacing, opts);
     if let Some(f) = plugin_failure() {
         return Err(f);
@@ -582,7 +625,12 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     let mut said: Vec<String> = Vec::new();
     if !a.quiet {
         said.extend(summary(&a, &report, step_info.as_ref(), write_s));
+        said.extend(warm.as_ref().map(|w| w.said(&mesh)));
         said.push(q.table());
+    }
+    if let Some(path) = &a.save_state {
+        let bytes = remesh::state_bytes(&model, &mesh, spacing, &size_text, &a.input);
+        stage_bytes(&mut out, path, &bytes)?;
     }
     if let Some(path) = &a.report {
         let json = serde_json::json!({
@@ -598,6 +646,10 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
             "time_mesh_s": t_mesh,
             "time_write_s": write_s,
         });
+        let mut json = json;
+        if let Some(w) = &warm {
+            json["remesh"] = w.report(&mesh, &report);
+        }
         let text = serde_json::to_string_pretty(&json)?;
         stage_bytes(&mut out, path, text.as_bytes())?;
     }
@@ -635,6 +687,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
 /// makes their directories ([`prepare_outputs`]).
 fn prepare_mesh_outputs(a: &MeshArgs) -> Result<OutputSet, CliError> {
     let mut inputs: Vec<&Path> = vec![&a.input];
+    inputs.extend(a.remesh.as_ref().map(|r| r.state.as_path()));
     inputs.extend(a.plugin_specs.iter().map(|s| s.path.as_path()));
     inputs.extend(a.plugin_config.as_deref());
     let mut outputs = vec![file_output("-o", &a.output)];
@@ -642,6 +695,11 @@ fn prepare_mesh_outputs(a: &MeshArgs) -> Result<OutputSet, CliError> {
     outputs.extend(a.picture.plots.as_deref().map(|p| dir_output("--plots", p)));
     outputs.extend(a.frames.as_deref().map(|p| dir_output("--frames", p)));
     outputs.extend(a.animate.as_deref().map(|p| file_output("--animate", p)));
+    outputs.extend(
+        a.save_state
+            .as_deref()
+            .map(|p| file_output("--save-state", p)),
+    );
     prepare_outputs(&inputs, &outputs)
 }
 

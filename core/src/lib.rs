@@ -22,7 +22,8 @@
 //!   its [`Options`] (and their [`Event`] observer) and [`Report`];
 //! - [`measure`]: the one definition of each element measure;
 //! - [`mesh`]: the mesh with source entities; [`quality`]: element quality;
-//!   [`verify`]: the last check a mesh passes before it may be written.
+//!   [`verify`]: the last check a mesh passes before it may be written;
+//! - [`remesh`]: re-meshing from a saved packing (§4.8).
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -40,6 +41,7 @@ pub mod mesh;
 pub mod model;
 pub(crate) mod options;
 pub mod quality;
+pub mod remesh;
 pub mod spacing;
 pub mod verify;
 pub(crate) mod volume;

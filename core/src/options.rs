@@ -14,6 +14,7 @@ use crate::bubbles::system::RelaxSettings;
 use crate::geom::P3;
 use crate::mesh::Mesh;
 use crate::model::EntityRef;
+use crate::remesh::WarmStart;
 
 /// What a run tells its observer ([`Options::observer`]).
 ///
@@ -148,6 +149,9 @@ pub struct Options {
     /// progress bar, the animation of the bubbles settling, a C caller's
     /// progress callback.
     pub observer: Option<ObserverFn>,
+    /// Re-meshing (§4.8): the old bubbles each matched entity starts from
+    /// ([`crate::remesh::plan`]); `None` meshes from scratch.
+    pub warm: Option<Arc<WarmStart>>,
 }
 
 impl std::fmt::Debug for Options {
@@ -157,6 +161,7 @@ impl std::fmt::Debug for Options {
             .field("fast", &self.fast)
             .field("relax", &self.relax)
             .field("volume_lattice", &self.volume_lattice)
+            .field("warm", &self.warm.is_some())
             .finish()
     }
 }

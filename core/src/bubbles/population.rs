@@ -116,7 +116,7 @@ pub fn control<C: Carrier>(
     let dmax = new.cell_h;
     let mut angles: Vec<f64> = Vec::new();
     for i in 0..n {
-        if deleted[i] || !focused(i) {
+        if deleted[i] || !focused(i) || sys.is_kept(i) {
             continue;
         }
         let (pi, di) = (sys.pos[i], sys.d[i]);
@@ -371,7 +371,7 @@ pub fn control_volume<C: Carrier>(
     let cell_h = new.cell_h;
     let mut units: Vec<V3> = Vec::new();
     for i in 0..n {
-        if deleted[i] || !focused(i) {
+        if deleted[i] || !focused(i) || sys.is_kept(i) {
             continue;
         }
         let (pi, di) = (sys.pos[i], sys.d[i]);

@@ -30,7 +30,8 @@ pub struct System<'a, C: Carrier> {
     pub vel: Vec<V3>,
     /// Bubble diameters d(x) at the current positions.
     pub d: Vec<f64>,
-    /// Global node ids of the fixed bubbles.
+    /// Global node ids of the fixed bubbles ([`KEPT_ID`]: a kept bubble of
+    /// a warm start, not yet a node).
     pub fixed_ids: Vec<u32>,
     /// Factor on the stable distance in the force: the packing is held
     /// slightly compressed ([`PRESSURE`]).
@@ -108,9 +109,21 @@ pub struct Pair {
     pub w: f64,
 }
 
+/// The id of a fixed bubble that a warm start kept from an earlier packing
+/// (thesis §4.8.1) and that becomes a mesh node only when the entity is
+/// emitted. The packing around it is kept too, so population control never
+/// inserts a bubble next to it.
+pub const KEPT_ID: u32 = u32::MAX;
+
 impl<'a, C: Carrier> System<'a, C> {
     pub fn n(&self) -> usize {
         self.pos.len()
+    }
+
+    /// Whether bubble `i` is a kept bubble of a warm start ([`KEPT_ID`]).
+    #[inline]
+    pub fn is_kept(&self, i: usize) -> bool {
+        i < self.n_fixed && self.fixed_ids.get(i) == Some(&KEPT_ID)
     }
 
     /// d at a point of this entity, checked finite and > 0.

@@ -329,7 +329,8 @@ impl Attempt<'_> {
         let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
-            let mut ids = mesh_edge(model, ei, spacing, opts.fast, mesh, node_d)
+            let start = opts.warm.as_deref().and_then(|w| w.of(e));
+            let mut ids = mesh_edge(model, ei, spacing, opts.fast, start, mesh, node_d)
                 .map_err(|x| x.within(model.describe(e)))?;
             // at least the refinement's segments (a refined edge shorter
             // than its spacing), and two where another one-segment edge

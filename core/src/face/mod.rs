@@ -26,11 +26,11 @@ pub(crate) mod improve;
 pub(crate) mod orient;
 pub(crate) mod placement;
 pub(crate) mod region;
+mod warm;
 
 use std::time::Instant;
 
 use crate::bubbles::constraint::{self, Carrier};
-use crate::bubbles::grid;
 use crate::bubbles::system::{self, RelaxStats, System};
 use crate::error::{check_spacing, MeshError};
 use crate::geom::{P3, V3};
@@ -101,6 +101,10 @@ pub struct FaceReport {
     /// mesh was rebuilt from it (graded planar faces; see `conformal`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lattice_cones: Option<(usize, usize)>,
+    /// A warm start (§4.8): old bubbles kept fixed, old bubbles carried
+    /// over as stage 1, quadtree seeds added where they left room.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warm: Option<[usize; 3]>,
 }
 
 /// The parameter box `(lo, hi)` of a surface (its `domain()` is
@@ -194,12 +198,37 @@ pub(crate) fn mesh_face(
     let region = job.region(&mut boundary)?;
     let (lo, hi) = region.bbox();
     let carrier = OnFace::new(job.surface, region, job.fe);
-    let mut sys = job.stage1(carrier, &boundary, mesh)?;
+    // a warm start (§4.8) replaces stage 1 by the old bubbles
+    let start = (!inputs.opts.fast)
+        .then(|| inputs.opts.warm.as_deref().and_then(|w| w.of(job.fe)))
+        .flatten();
+    let (mut sys, warm_counts, far) = match start {
+        Some(st) => {
+            let fixed = warm::Fixed {
+                pos: boundary
+                    .ids
+                    .iter()
+                    .map(|&id| mesh.nodes[id as usize].pos)
+                    .collect(),
+                d: boundary
+                    .ids
+                    .iter()
+                    .map(|&id| inputs.node_d[id as usize])
+                    .collect(),
+                uv: boundary.uv.clone(),
+                ids: boundary.ids.clone(),
+            };
+            let (sys, c, far) = warm::stage1(carrier, inputs.spacing, fixed, st)?;
+            (sys, Some(c), Some(far))
+        }
+        None => (job.stage1(carrier, &boundary, mesh)?, None, None),
+    };
     let mut fr = FaceReport {
         face: fi as u32,
         name: job.face.name.clone(),
         boundary_bubbles: sys.n_fixed,
         stage1_bubbles: sys.n() - sys.n_fixed,
+        warm: warm_counts.map(|c| [c.kept, c.carried, c.filled]),
         ..Default::default()
     };
     timings.stage1_s += t1.elapsed().as_secs_f64();
@@ -209,10 +238,13 @@ pub(crate) fn mesh_face(
 
     if !inputs.opts.fast {
         let t2 = Instant::now();
-        fr.relax = Some(job.stage2(&mut sys)?);
+        fr.relax = Some(job.stage2(&mut sys, start.is_some())?);
         timings.stage2_s += t2.elapsed().as_secs_f64();
     }
     fr.bubbles = sys.n() - sys.n_fixed;
+    if let Some(far) = far {
+        warm::restore(&mut sys, far);
+    }
 
     let t3 = Instant::now();
     let mut tris = job.connect(&sys, &boundary)?;
@@ -220,7 +252,8 @@ pub(crate) fn mesh_face(
         improve::improve(&mut sys, &mut tris, &boundary.segments, PRM.improve_rounds)?;
     }
     let t_lattice = Instant::now();
-    if job.wants_conformal_lattice(lo, hi) {
+    // a warm start keeps its packing (the old one came from the lattice)
+    if start.is_none() && job.wants_conformal_lattice(lo, hi) {
         if let Some((cones, relax)) =
             conformal_restart(&mut sys, &mut tris, &boundary, job.fe, &inputs.opts.relax)?
         {
@@ -556,7 +589,7 @@ impl<'a> FaceJob<'a> {
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
         let check_seeds = spacing.constant().is_none() || PRM.apex_layer || !surface.is_planar();
-        let seeds = uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
+        let seeds = placement::uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
         let n_fixed = boundary.ids.len();
         let mut sys = System {
             carrier,
@@ -589,7 +622,11 @@ impl<'a> FaceJob<'a> {
     }
 
     /// Stage 2 (§4.3–4.7): relaxation with population control.
-    fn stage2(&self, sys: &mut System<'a, OnFace<'a>>) -> Result<RelaxStats, MeshError> {
+    fn stage2(
+        &self,
+        sys: &mut System<'a, OnFace<'a>>,
+        warm: bool,
+    ) -> Result<RelaxStats, MeshError> {
         let opts = self.inputs.opts;
         // a uniformly spaced face that only bounds a volume stops earlier
         // (see system::PLATEAU_BOUNDARY)
@@ -600,6 +637,16 @@ impl<'a> FaceJob<'a> {
             }
         } else {
             opts.relax
+        };
+        // a warm start is near a balance: a short stage 2 (§4.8.2)
+        let settings = if warm {
+            system::RelaxSettings {
+                max_steps: settings.max_steps.min(crate::remesh::warm::WARM_MAX_STEPS),
+                tol: settings.tol.max(crate::remesh::warm::WARM_TOL),
+                ..settings
+            }
+        } else {
+            settings
         };
         sys.relax(
             &settings,
@@ -685,6 +732,18 @@ impl<'a> FaceJob<'a> {
             }
         }
         let mut node_of = vec![u32::MAX; sys.n()];
+        // kept bubbles of a warm start become nodes at their old
+        // coordinates (see `warm`)
+        for i in 0..nf {
+            if sys.fixed_ids[i] == warm::KEPT && referenced[i] {
+                node_of[i] = mesh.nodes.len() as u32;
+                mesh.nodes.push(Node {
+                    pos: sys.pos[i],
+                    entity: fe,
+                    params: sys.params[i],
+                });
+            }
+        }
         for i in nf..sys.n() {
             if referenced[i] {
                 node_of[i] = mesh.nodes.len() as u32;
@@ -696,7 +755,7 @@ impl<'a> FaceJob<'a> {
             }
         }
         let global = |l: usize| -> u32 {
-            if l < nf {
+            if l < nf && sys.fixed_ids[l] != warm::KEPT {
                 sys.fixed_ids[l]
             } else {
                 node_of[l]
@@ -764,69 +823,6 @@ fn face_left_of_periodic_loop(
         }
     }
     votes >= 0
-}
-
-/// The seeds, in order, that do not crowd a fixed bubble or (with
-/// `check_seeds`) an earlier kept seed: closer than 0.75·r0.
-fn uncrowded(
-    all: Vec<placement::Seed>,
-    fixed_pos: &[P3],
-    fixed_d: &[f64],
-    check_seeds: bool,
-) -> Vec<placement::Seed> {
-    let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
-    let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
-    let fixed_grid = grid::Grid::new(fixed_pos, 1.5 * dmin_fixed);
-    let crowds = |p: &P3,
-                  d: f64,
-                  pos: &[P3],
-                  ds: &[f64],
-                  g: &grid::Grid,
-                  reach: f64,
-                  skip: &dyn Fn(usize) -> bool| {
-        let mut hit = false;
-        g.query(p, 0.75 * 0.5 * (d + reach), |j| {
-            let j = j as usize;
-            if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
-                hit = true;
-            }
-        });
-        hit
-    };
-    let mut keep: Vec<bool> = all
-        .iter()
-        .map(|s| {
-            !crowds(
-                &s.pos,
-                s.d,
-                fixed_pos,
-                fixed_d,
-                &fixed_grid,
-                dmax_fixed,
-                &|_| false,
-            )
-        })
-        .collect();
-    if check_seeds {
-        let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
-        let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
-        let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
-        let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
-        let g = grid::Grid::new(&spos, 1.5 * dmin);
-        for i in 0..all.len() {
-            if keep[i] {
-                let earlier_kept = |j: usize| !(j < i && keep[j]);
-                if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
-                    keep[i] = false;
-                }
-            }
-        }
-    }
-    all.into_iter()
-        .zip(keep)
-        .filter(|(_, k)| *k)
-        .map(|(s, _)| s)
-        .collect()
 }
 
 /// Whether a planar face's (u,v) is an isometry (unit, orthogonal partials

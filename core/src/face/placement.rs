@@ -226,6 +226,69 @@ pub fn apex_seeds<C: Carrier>(
     Ok(out)
 }
 
+/// The seeds, in order, that do not crowd a fixed bubble or (with
+/// `check_seeds`) an earlier kept seed: closer than 0.75·r0.
+pub(crate) fn uncrowded(
+    all: Vec<Seed>,
+    fixed_pos: &[P3],
+    fixed_d: &[f64],
+    check_seeds: bool,
+) -> Vec<Seed> {
+    let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
+    let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
+    let fixed_grid = crate::bubbles::grid::Grid::new(fixed_pos, 1.5 * dmin_fixed);
+    let crowds = |p: &P3,
+                  d: f64,
+                  pos: &[P3],
+                  ds: &[f64],
+                  g: &crate::bubbles::grid::Grid,
+                  reach: f64,
+                  skip: &dyn Fn(usize) -> bool| {
+        let mut hit = false;
+        g.query(p, 0.75 * 0.5 * (d + reach), |j| {
+            let j = j as usize;
+            if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
+                hit = true;
+            }
+        });
+        hit
+    };
+    let mut keep: Vec<bool> = all
+        .iter()
+        .map(|s| {
+            !crowds(
+                &s.pos,
+                s.d,
+                fixed_pos,
+                fixed_d,
+                &fixed_grid,
+                dmax_fixed,
+                &|_| false,
+            )
+        })
+        .collect();
+    if check_seeds {
+        let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
+        let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
+        let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
+        let g = crate::bubbles::grid::Grid::new(&spos, 1.5 * dmin);
+        for i in 0..all.len() {
+            if keep[i] {
+                let earlier_kept = |j: usize| !(j < i && keep[j]);
+                if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
+                    keep[i] = false;
+                }
+            }
+        }
+    }
+    all.into_iter()
+        .zip(keep)
+        .filter(|(_, k)| *k)
+        .map(|(s, _)| s)
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,243 @@
+//! `bubblemesh mesh --save-state` and `bubblemesh remesh` (thesis §4.8):
+//! the contract of `mesh` (outputs whole or not at all, errors naming the
+//! file and the reason) and what re-meshing is for (kept nodes, a report
+//! of what was kept, moved, added and removed).
+
+mod support;
+
+use std::path::Path;
+
+use support::*;
+
+/// The plate of examples/plate_two_holes.toml with its first hole at `x`.
+fn plate(dir: &Path, name: &str, x: f64) -> String {
+    let text = std::fs::read_to_string(example("plate_two_holes.toml"))
+        .unwrap()
+        .replace("center = [0.5, 0.5]", &format!("center = [{x:?}, 0.5]"));
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+/// Meshes the plate and saves its state; returns the state's path.
+fn saved_state(dir: &Path) -> String {
+    let input = plate(dir, "old.toml", 0.5);
+    let state = dir.join("old.state").display().to_string();
+    let out = dir.join("old.msh").display().to_string();
+    let o = run(&[
+        "mesh",
+        &input,
+        "-o",
+        &out,
+        "--size",
+        "0.04",
+        "--save-state",
+        &state,
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    state
+}
+
+/// Node coordinates of an MSH file as exact bit patterns.
+fn msh_nodes(path: &Path) -> Vec<[u64; 3]> {
+    let mesh = bubblemesh_io::read(path).unwrap();
+    mesh.nodes
+        .iter()
+        .map(|n| [n.pos.x.to_bits(), n.pos.y.to_bits(), n.pos.z.to_bits()])
+        .collect()
+}
+
+/// A re-meshing writes the mesh, the new state and a report that says what
+/// was matched, kept, moved, added and removed and how many steps stage 2
+/// took; with a region, every old node farther than two spacings from it
+/// is in the new mesh bit for bit, and the report counts them.
+#[test]
+fn remesh_writes_mesh_state_and_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = saved_state(dir.path());
+    let input = plate(dir.path(), "new.toml", 0.52);
+    let out = dir.path().join("new.msh");
+    let rep = dir.path().join("new.json");
+    let new_state = dir.path().join("new.state");
+    let o = run(&[
+        "remesh",
+        &state,
+        &input,
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "0.04",
+        "--region",
+        "sphere:0.51,0.5,0,0.25",
+        "--report",
+        rep.to_str().unwrap(),
+        "--save-state",
+        new_state.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("re-meshed from"), "{}", stderr(&o));
+    assert!(new_state.is_file());
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    let s = &j["remesh"]["summary"];
+    for k in ["kept", "moved", "added", "removed"] {
+        assert!(s[k].is_u64(), "{k} missing: {s}");
+    }
+    assert_eq!(s["matching"]["matched"].as_array().unwrap().len(), 7);
+    let (far, kept) = (
+        s["far_from_region"].as_u64().unwrap(),
+        s["far_kept"].as_u64().unwrap(),
+    );
+    assert!(far > 100 && kept == far, "{kept} of {far} kept");
+    assert!(j["remesh"]["stage2_steps_max"].as_u64().unwrap() > 0);
+    // the same count, from the files: old nodes outside the band
+    let old = msh_nodes(&dir.path().join("old.msh"));
+    let new: std::collections::HashSet<_> = msh_nodes(&out).into_iter().collect();
+    let outside: Vec<_> = old
+        .iter()
+        .filter(|p| {
+            let (x, y) = (f64::from_bits(p[0]), f64::from_bits(p[1]));
+            ((x - 0.51).hypot(y - 0.5) - 0.25) > 2.0 * 0.04
+        })
+        .collect();
+    // the report counts bubbles of edges and faces; the file has the model
+    // vertices too
+    assert!(outside.len() as u64 >= far && outside.len() as u64 <= far + 6);
+    assert!(outside.iter().all(|p| new.contains(*p)));
+}
+
+/// Every bad state is an error naming the state file and the reason, and
+/// no output is written.
+#[test]
+fn bad_states_are_refused_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let state = saved_state(dir.path());
+    let bytes = std::fs::read(&state).unwrap();
+    let input = plate(dir.path(), "new.toml", 0.52);
+    let out = dir.path().join("out.msh");
+    let new_state = dir.path().join("out.state");
+    let try_state = |name: &str, content: &[u8], extra: &[&str], reason: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, content).unwrap();
+        let mut args = vec![
+            "remesh",
+            p.to_str().unwrap(),
+            &input,
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "0.04",
+            "--save-state",
+            new_state.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{name}: {e}");
+        assert!(e.contains(name) && e.contains(reason), "{name}: {e}");
+        assert!(
+            !out.exists() && !new_state.exists(),
+            "{name}: output written"
+        );
+    };
+    try_state(
+        "truncated.state",
+        &bytes[..bytes.len() / 2],
+        &[],
+        "truncated",
+    );
+    let mut flipped = bytes.clone();
+    let k = bytes.len() - 100;
+    flipped[k] ^= 0x10;
+    try_state("flipped.state", &flipped, &[], "checksum");
+    let mut v9 = bytes.clone();
+    v9[17] = b'9';
+    try_state("v9.state", &v9, &[], "version 9 is not supported");
+    try_state(
+        "mesh.state",
+        b"$MeshFormat\n4.1 0 8\n",
+        &[],
+        "not a bubblemesh-state file",
+    );
+    // another model: a state of the hexagon
+    let hex_state = dir.path().join("hex.state");
+    let o = run(&[
+        "mesh",
+        example("hexagon.toml").to_str().unwrap(),
+        "-o",
+        dir.path().join("hex.msh").to_str().unwrap(),
+        "--size",
+        "0.2",
+        "--save-state",
+        hex_state.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success());
+    try_state(
+        "another.state",
+        &std::fs::read(&hex_state).unwrap(),
+        &[],
+        "another model",
+    );
+    try_state(
+        "empty.state",
+        &bytes,
+        &["--region", "box:5,5,5,6,6,6"],
+        "selects nothing",
+    );
+}
+
+/// `faces:` re-meshes the listed faces of examples/two_faces.toml with a
+/// finer spacing; the other face and the edge they share keep their nodes.
+#[test]
+fn a_face_region_remeshes_only_that_face() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = example("two_faces.toml");
+    let input = input.to_str().unwrap();
+    let state = dir.path().join("s.state");
+    let old = dir.path().join("old.msh");
+    let o = run(&[
+        "mesh",
+        input,
+        "-o",
+        old.to_str().unwrap(),
+        "--size",
+        "0.1",
+        "-q",
+        "--save-state",
+        state.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let new = dir.path().join("new.msh");
+    let o = run(&[
+        "remesh",
+        state.to_str().unwrap(),
+        input,
+        "-o",
+        new.to_str().unwrap(),
+        "--size",
+        "0.06",
+        "--region",
+        "faces:1",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = bubblemesh_io::read(&old).unwrap();
+    let b = bubblemesh_io::read(&new).unwrap();
+    let now: std::collections::HashSet<_> = b
+        .nodes
+        .iter()
+        .map(|n| (n.pos.x.to_bits(), n.pos.y.to_bits()))
+        .collect();
+    let left: Vec<_> = a.nodes.iter().filter(|n| n.pos.x <= 1.0).collect();
+    assert!(left
+        .iter()
+        .all(|n| now.contains(&(n.pos.x.to_bits(), n.pos.y.to_bits()))));
+    let right = |m: &bubblemesh_core::Mesh| m.nodes.iter().filter(|n| n.pos.x > 1.0 + 1e-9).count();
+    assert!(
+        right(&b) as f64 > 2.0 * right(&a) as f64,
+        "{} vs {}",
+        right(&b),
+        right(&a)
+    );
+}

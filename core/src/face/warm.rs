@@ -1,0 +1,223 @@
+//! A warm-started face (thesis §4.8): stage 1 is the old packing.
+//!
+//! - The free old bubbles are carried over by their (u,v) and re-projected
+//!   onto the new surface (its point at that (u,v)); those now outside the
+//!   face are dropped, and those crowding the new boundary or each other
+//!   (closer than 0.75·r0, as stage 1's seeds) are removed.
+//! - Kept bubbles (a local re-meshing, §4.8.1) become fixed bubbles at
+//!   their old coordinates, bit for bit, after the boundary's; the mesh
+//!   gets them as nodes when the face is emitted ([`KEPT`]).
+//! - Where the change left room (a hole moved away, a spacing refined),
+//!   the oblique quadtree's seeds that crowd no bubble fill it.
+//!
+//! Stage 2 then runs short ([`crate::remesh::warm::WARM_MAX_STEPS`]), with
+//! population control, and stops on the usual small-move tolerance.
+
+use crate::bubbles::constraint::Carrier;
+use crate::bubbles::grid;
+use crate::bubbles::system::{self, System};
+use crate::error::{check_spacing, MeshError};
+use crate::geom::{P3, V3};
+use crate::remesh::warm::EntityStart;
+use crate::spacing::{Spacing, SpacingQuery};
+
+use super::carrier::OnFace;
+use super::placement::{self, uncrowded};
+
+/// The fixed-bubble id of a kept bubble: not yet a mesh node (see
+/// `FaceJob::emit`).
+pub(super) const KEPT: u32 = system::KEPT_ID;
+
+/// What a warm stage 1 did, for the report.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct WarmCounts {
+    /// Kept (fixed) old bubbles.
+    pub kept: usize,
+    /// Free old bubbles that start stage 2.
+    pub carried: usize,
+    /// Quadtree seeds added where the old packing left room.
+    pub filled: usize,
+}
+
+/// The fixed bubbles of a face (its boundary): positions, diameters,
+/// (u,v) and node ids.
+pub(super) struct Fixed {
+    pub pos: Vec<P3>,
+    pub d: Vec<f64>,
+    pub uv: Vec<[f64; 2]>,
+    pub ids: Vec<u32>,
+}
+
+/// Stage 1 from the old bubbles `start` on the face `carrier` holds
+/// bubbles on, after the boundary's `fixed` bubbles (see the module docs).
+pub(super) fn stage1<'a>(
+    carrier: OnFace<'a>,
+    spacing: &'a dyn Spacing,
+    fixed: Fixed,
+    start: &EntityStart,
+) -> Result<(System<'a, OnFace<'a>>, WarmCounts, Far), MeshError> {
+    let fe = carrier.entity();
+    let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
+        let d = spacing.spacing(&SpacingQuery {
+            point: *p,
+            entity: fe,
+            params: uv,
+        });
+        check_spacing(d, *p, fe)
+    };
+    let n_boundary = fixed.ids.len();
+    let Fixed {
+        pos: mut fixed_pos,
+        d: mut fixed_d,
+        uv: mut fixed_uv,
+        ids: mut fixed_ids,
+    } = fixed;
+    let mut counts = WarmCounts::default();
+    for b in &start.kept {
+        let uv = carrier.region.wrap(b.params);
+        if carrier.contains(uv) {
+            fixed_d.push(d_at(&b.pos, uv)?);
+            fixed_pos.push(b.pos);
+            fixed_uv.push(uv);
+            fixed_ids.push(KEPT);
+            counts.kept += 1;
+        }
+    }
+    let mut carried = Vec::new();
+    for b in &start.free {
+        let uv = carrier.region.wrap(b.params);
+        if carrier.contains(uv) {
+            let p = carrier.point(uv);
+            carried.push(placement::Seed {
+                pos: p,
+                params: uv,
+                d: d_at(&p, uv)?,
+            });
+        }
+    }
+    let carried = uncrowded(carried, &fixed_pos, &fixed_d, true);
+    // the quadtree's seeds survive only where no bubble is near
+    let (lo, hi) = carrier.region.bbox();
+    let d_outside = fixed_d
+        .iter()
+        .chain(carried.iter().map(|s| &s.d))
+        .cloned()
+        .fold(f64::INFINITY, f64::min);
+    let quad = placement::oblique_quadtree(&carrier, lo, hi, None, d_outside, &mut d_at)?;
+    let mut near_pos = fixed_pos.clone();
+    let mut near_d = fixed_d.clone();
+    near_pos.extend(carried.iter().map(|s| s.pos));
+    near_d.extend(carried.iter().map(|s| s.d));
+    let filled = uncrowded(quad, &near_pos, &near_d, true);
+    counts.carried = carried.len();
+    counts.filled = filled.len();
+    let seeds = carried.into_iter().chain(filled);
+    let seeds: Vec<placement::Seed> = seeds.collect();
+    // kept bubbles far from every seed cannot meet a free bubble in a
+    // short stage 2: they wait outside the system (see `restore`)
+    let far = split_far(
+        &mut fixed_pos,
+        &mut fixed_uv,
+        &mut fixed_d,
+        &mut fixed_ids,
+        n_boundary,
+        &seeds,
+    );
+    let n_fixed = fixed_ids.len();
+    let mut sys = System {
+        carrier,
+        spacing,
+        dim: 2,
+        n_fixed,
+        pos: fixed_pos,
+        params: fixed_uv,
+        vel: vec![V3::zeros(); n_fixed],
+        d: fixed_d,
+        fixed_ids,
+        pressure: if spacing.constant().is_some() {
+            1.0
+        } else {
+            system::PRESSURE
+        },
+    };
+    for s in seeds {
+        sys.push_free(s.pos, s.params, s.d);
+    }
+    Ok((sys, counts, far))
+}
+
+/// Kept bubbles set aside during stage 2 (positions, parameters,
+/// diameters).
+pub(super) type Far = (Vec<P3>, Vec<[f64; 2]>, Vec<f64>);
+
+/// A kept bubble joins stage 2 only if it lies within this many of its
+/// spacings of a seed: the force reaches 1.5 spacings, and a short stage 2
+/// moves a free bubble a fraction of one.
+const NEAR: f64 = 4.0;
+/// Kept bubbles within this many spacings of a boundary bubble stay in
+/// stage 2 as well (see `split_far`).
+const WALL: f64 = 2.5;
+
+/// Takes the kept bubbles (fixed bubbles from `first` on) farther than
+/// [`NEAR`] spacings from every seed and [`WALL`] spacings from every
+/// boundary bubble out of the fixed arrays.
+fn split_far(
+    pos: &mut Vec<P3>,
+    uv: &mut Vec<[f64; 2]>,
+    d: &mut Vec<f64>,
+    ids: &mut Vec<u32>,
+    first: usize,
+    seeds: &[placement::Seed],
+) -> Far {
+    let spos: Vec<P3> = seeds.iter().map(|s| s.pos).collect();
+    let dmax = d
+        .iter()
+        .chain(seeds.iter().map(|s| &s.d))
+        .cloned()
+        .fold(0.0f64, f64::max);
+    let g = grid::Grid::new(&spos, (NEAR * dmax).max(f64::MIN_POSITIVE));
+    let bpos: Vec<P3> = pos[..first].to_vec();
+    let bg = grid::Grid::new(&bpos, (WALL * dmax).max(f64::MIN_POSITIVE));
+    let mut far: Far = (Vec::new(), Vec::new(), Vec::new());
+    let mut k = first;
+    for i in first..pos.len() {
+        let mut near = false;
+        g.query(&pos[i], NEAR * dmax, |j| {
+            near |= (spos[j as usize] - pos[i]).norm() <= NEAR * d[i].max(seeds[j as usize].d);
+        });
+        // the kept bubbles along the boundary stay too: population control
+        // looks for room next to a boundary bubble, and they fill it
+        bg.query(&pos[i], WALL * dmax, |j| {
+            near |= (bpos[j as usize] - pos[i]).norm() <= WALL * d[i].max(d[j as usize]);
+        });
+        if near {
+            pos[k] = pos[i];
+            uv[k] = uv[i];
+            d[k] = d[i];
+            ids[k] = ids[i];
+            k += 1;
+        } else {
+            far.0.push(pos[i]);
+            far.1.push(uv[i]);
+            far.2.push(d[i]);
+        }
+    }
+    pos.truncate(k);
+    uv.truncate(k);
+    d.truncate(k);
+    ids.truncate(k);
+    far
+}
+
+/// Puts the kept bubbles set aside back among the fixed ones (after the
+/// others, before the free ones), for the connection.
+pub(super) fn restore<C: Carrier>(sys: &mut System<'_, C>, far: Far) {
+    let nf = sys.n_fixed;
+    let m = far.0.len();
+    sys.pos.splice(nf..nf, far.0);
+    sys.params.splice(nf..nf, far.1);
+    sys.d.splice(nf..nf, far.2);
+    sys.vel.splice(nf..nf, std::iter::repeat_n(V3::zeros(), m));
+    sys.fixed_ids.extend(std::iter::repeat_n(KEPT, m));
+    sys.n_fixed += m;
+}
