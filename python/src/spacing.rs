@@ -1,0 +1,218 @@
+//! A Python callable as the node spacing d(x): [`PySpacing`].
+//!
+//! The callable takes an `(n, 3)` float64 array of points and returns `n`
+//! spacings; it is only ever called in batches:
+//!
+//! - where the engine asks for many points at once
+//!   ([`Spacing::spacing_batch`]: stage 2 re-spacing the bubbles, the
+//!   quality report's L/d), with exactly those points;
+//! - where it asks for one point at a time (stage 1, the edge chains, new
+//!   bubbles of population control), from a grid of the callable's values
+//!   over the model's box: cells of 1/[`CELLS`] of the box's diagonal,
+//!   evaluated lazily in tiles of `TILE`³ cells (one call per tile, where
+//!   the engine first asks), interpolated trilinearly.
+//!
+//! Every value is checked (finite, > 0) and the result's shape too; the
+//! first failure, or an exception of the callable, cancels the run
+//! ([`crate::Run::cancel`]) and is raised as a `SpacingError`.
+
+use std::collections::HashMap;
+use std::sync::{Arc, RwLock};
+
+use bubblemesh_core::spacing::{Spacing, SpacingQuery};
+use bubblemesh_core::{Model, P3};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+use crate::{Run, SpacingError};
+
+/// Cells of the grid along the model box's diagonal.
+const CELLS: f64 = 256.0;
+/// Cells along each side of a tile (one call of the callable).
+const TILE: usize = 8;
+
+/// A Python callable as a [`Spacing`].
+pub(crate) struct PySpacing {
+    func: Py<PyAny>,
+    run: Arc<Run>,
+    /// The grid's corner (the model's box, padded).
+    lo: P3,
+    /// The grid's cell size.
+    h: f64,
+    /// Cells along x, y, z.
+    cells: [i64; 3],
+    /// Values at the nodes of each tile evaluated so far.
+    tiles: RwLock<HashMap<[i64; 3], Arc<Vec<f64>>>>,
+}
+
+impl PySpacing {
+    /// `func` as the spacing of `model`'s run `run`.
+    pub(crate) fn new(func: Py<PyAny>, model: &Model, run: Arc<Run>) -> PySpacing {
+        let (lo, hi) = model
+            .bbox()
+            .unwrap_or((P3::new(0.0, 0.0, 0.0), P3::new(1.0, 1.0, 1.0)));
+        let diag = (hi - lo).norm();
+        let diag = if diag > 0.0 && diag.is_finite() {
+            diag
+        } else {
+            1.0
+        };
+        let h = diag / CELLS;
+        let pad = 2.0 * h;
+        let lo = P3::new(lo.x - pad, lo.y - pad, lo.z - pad);
+        let ext = hi - lo;
+        let cells = [ext.x, ext.y, ext.z].map(|e| ((e + pad) / h).ceil().max(1.0) as i64);
+        PySpacing {
+            func,
+            run,
+            lo,
+            h,
+            cells,
+            tiles: RwLock::new(HashMap::new()),
+        }
+    }
+
+    /// The callable at `points`, checked; cancels the run and unwinds on a
+    /// failure.
+    fn eval(&self, points: Vec<f64>) -> Vec<f64> {
+        self.run.stop_if_cancelled();
+        let n = points.len() / 3;
+        match Python::with_gil(|py| self.call(py, points, n)) {
+            Ok(v) => v,
+            Err(e) => {
+                self.run.cancel(e);
+                self.run.stop_if_cancelled();
+                unreachable!("the run was just cancelled")
+            }
+        }
+    }
+
+    /// Calls the function on the `n` points (x, y, z flattened) and checks
+    /// what it returns.
+    fn call(&self, py: Python<'_>, points: Vec<f64>, n: usize) -> PyResult<Vec<f64>> {
+        let arr = Array2::from_shape_vec((n, 3), points)
+            .expect("three coordinates per point")
+            .into_pyarray(py);
+        let got = self.func.call1(py, (arr.clone(),)).map_err(|e| {
+            let err = SpacingError::new_err(format!("the spacing callable raised {e}"));
+            err.set_cause(py, Some(e));
+            err
+        })?;
+        let np = py.import("numpy")?;
+        let values = np
+            .call_method1("asarray", (got.bind(py), "float64"))
+            .map_err(|e| {
+                SpacingError::new_err(format!(
+                    "the spacing callable returned something that is not an array of numbers ({e})"
+                ))
+            })?;
+        let values = values
+            .downcast::<numpy::PyArrayDyn<f64>>()
+            .map_err(|_| SpacingError::new_err("the spacing callable returned no float array"))?;
+        if values.shape() != [n] {
+            return Err(SpacingError::new_err(format!(
+                "the spacing callable returned an array of shape {:?} for {n} points; expected ({n},)",
+                values.shape()
+            )));
+        }
+        let out: Vec<f64> = values.readonly().as_array().iter().copied().collect();
+        if let Some(k) = out.iter().position(|d| !(d.is_finite() && *d > 0.0)) {
+            let p = arr.readonly();
+            let p = p.as_array();
+            return Err(SpacingError::new_err(format!(
+                "the spacing callable returned {} at ({}, {}, {}): a spacing must be finite and > 0",
+                out[k],
+                p[[k, 0]],
+                p[[k, 1]],
+                p[[k, 2]]
+            )));
+        }
+        Ok(out)
+    }
+
+    /// The values at the nodes of tile `t`, evaluated on first use.
+    fn tile(&self, t: [i64; 3]) -> Arc<Vec<f64>> {
+        if let Some(v) = self.tiles.read().unwrap_or_else(|p| p.into_inner()).get(&t) {
+            return v.clone();
+        }
+        let m = TILE + 1;
+        let mut pts = Vec::with_capacity(m * m * m * 3);
+        for i in 0..m {
+            for j in 0..m {
+                for k in 0..m {
+                    let c = [
+                        t[0] * TILE as i64 + i as i64,
+                        t[1] * TILE as i64 + j as i64,
+                        t[2] * TILE as i64 + k as i64,
+                    ];
+                    pts.push(self.lo.x + c[0] as f64 * self.h);
+                    pts.push(self.lo.y + c[1] as f64 * self.h);
+                    pts.push(self.lo.z + c[2] as f64 * self.h);
+                }
+            }
+        }
+        let v = Arc::new(self.eval(pts));
+        self.tiles
+            .write()
+            .unwrap_or_else(|p| p.into_inner())
+            .entry(t)
+            .or_insert(v)
+            .clone()
+    }
+
+    /// d at `p` from the grid (trilinear in the cell holding `p`; points
+    /// off the grid take its nearest cell's values).
+    fn interpolate(&self, p: &P3) -> f64 {
+        let rel = [
+            (p.x - self.lo.x) / self.h,
+            (p.y - self.lo.y) / self.h,
+            (p.z - self.lo.z) / self.h,
+        ];
+        let mut tile = [0i64; 3];
+        let mut local = [0.0f64; 3];
+        let mut cell = [0usize; 3];
+        for a in 0..3 {
+            let c = if rel[a].is_finite() {
+                rel[a].clamp(0.0, self.cells[a] as f64)
+            } else {
+                0.0
+            };
+            let t = ((c / TILE as f64).floor() as i64).min((self.cells[a] - 1) / TILE as i64);
+            let l = (c - (t * TILE as i64) as f64).clamp(0.0, TILE as f64);
+            let ci = (l.floor() as usize).min(TILE - 1);
+            tile[a] = t;
+            cell[a] = ci;
+            local[a] = l - ci as f64;
+        }
+        let v = self.tile(tile);
+        let m = TILE + 1;
+        let at = |i: usize, j: usize, k: usize| v[(i * m + j) * m + k];
+        let [fx, fy, fz] = local;
+        let [i, j, k] = cell;
+        let c00 = at(i, j, k) * (1.0 - fx) + at(i + 1, j, k) * fx;
+        let c10 = at(i, j + 1, k) * (1.0 - fx) + at(i + 1, j + 1, k) * fx;
+        let c01 = at(i, j, k + 1) * (1.0 - fx) + at(i + 1, j, k + 1) * fx;
+        let c11 = at(i, j + 1, k + 1) * (1.0 - fx) + at(i + 1, j + 1, k + 1) * fx;
+        let c0 = c00 * (1.0 - fy) + c10 * fy;
+        let c1 = c01 * (1.0 - fy) + c11 * fy;
+        c0 * (1.0 - fz) + c1 * fz
+    }
+}
+
+impl Spacing for PySpacing {
+    fn spacing(&self, q: &SpacingQuery) -> f64 {
+        self.interpolate(&q.point)
+    }
+
+    fn spacing_batch(&self, qs: &[SpacingQuery], out: &mut [f64]) {
+        if qs.is_empty() {
+            return;
+        }
+        let pts: Vec<f64> = qs
+            .iter()
+            .flat_map(|q| [q.point.x, q.point.y, q.point.z])
+            .collect();
+        out.copy_from_slice(&self.eval(pts));
+    }
+}

@@ -1,0 +1,195 @@
+"""bubblemesh.mesh on files, CadQuery and build123d parts; the Mesh's arrays,
+writers, quality and meshio."""
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+import bubblemesh
+from conftest import EXAMPLES, FIXTURES, need, tet_volumes, unique_edges
+
+
+def check_solid(m, volume):
+    """Every tetrahedron positive, and their total within 0.5 % of `volume`."""
+    pts, tets = m.points, m.tetrahedra
+    assert pts.dtype == np.float64 and pts.shape[1] == 3
+    assert tets.shape[1] == 4 and len(tets) > 100
+    assert tets.min() >= 0 and tets.max() < len(pts)
+    v = tet_volumes(pts, tets)
+    assert (v > 0).all(), f"{(v <= 0).sum()} tetrahedra not positive (min {v.min()})"
+    total = v.sum()
+    assert abs(total - volume) / volume < 0.005, (total, volume)
+
+
+def test_cadquery_box_with_hole_into_tetrahedra():
+    cq = need("cadquery")
+    part = cq.Workplane("XY").box(10, 10, 10).faces(">Z").workplane().hole(4)
+    volume = part.val().Volume()
+    m = bubblemesh.mesh(part, size=0.6, dim=3, progress=False)
+    check_solid(m, volume)
+    assert len(m.tetrahedron_entities) == len(m.tetrahedra)
+    assert len(m.triangles) > 0 and len(m.triangle_entities) == len(m.triangles)
+
+
+def test_build123d_part_into_tetrahedra():
+    bd = need("build123d")
+    with bd.BuildPart() as builder:
+        bd.Box(12, 8, 6)
+        bd.fillet(builder.edges().filter_by(bd.Axis.Z), radius=2)
+        with bd.Locations((0, 0, 3)):
+            bd.Cylinder(2, 4, mode=bd.Mode.SUBTRACT)
+    part = builder.part
+    m = bubblemesh.mesh(part, size=0.5, dim=3, progress=False)
+    check_solid(m, part.volume)
+
+
+def test_step_file_tetrahedra_and_surface_default():
+    path = str(FIXTURES / "cube.step")
+    surf = bubblemesh.mesh(path, size=0.1, progress=False)
+    # a STEP solid meshes its surfaces unless dim=3, as on the command line
+    assert len(surf.tetrahedra) == 0 and len(surf.triangles) > 0
+    m = bubblemesh.mesh(path, size=0.1, dim=3, progress=False)
+    check_solid(m, 1.0)
+    names = m.entity_names
+    assert all(isinstance(k, tuple) and len(k) == 2 for k in names)
+    assert any(dim == 3 for dim, _ in names)
+
+
+def test_callable_spacing_is_honoured():
+    calls = []
+
+    def d(p):
+        calls.append(len(p))
+        return 0.02 + 0.05 * p[:, 0]
+
+    m = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size=d, progress=False)
+    pts, tris = m.points, m.triangles
+    assert len(tris) > 500
+    edges = unique_edges(tris)
+    length = np.linalg.norm(pts[edges[:, 0]] - pts[edges[:, 1]], axis=1)
+    mid = 0.5 * (pts[edges[:, 0]] + pts[edges[:, 1]])
+    ratio = length / d(mid)
+    inside = ((ratio >= 1 / math.sqrt(2)) & (ratio <= math.sqrt(2))).mean()
+    assert inside >= 0.95, inside
+    # the spacing is graded as asked: edges near x = 1 are longer than near x = 0
+    assert length[mid[:, 0] > 0.8].mean() > 2.5 * length[mid[:, 0] < 0.2].mean()
+    # called in batches, never once per point
+    batches = calls[:-1]
+    assert len(batches) > 0 and max(batches) > 1
+    points_asked = sum(batches)
+    assert len(batches) < points_asked / 20, (len(batches), points_asked)
+
+
+def test_callable_spacing_in_a_volume():
+    m = bubblemesh.mesh(
+        str(FIXTURES / "cube.step"), size=lambda p: 0.08 + 0.1 * p[:, 2], dim=3, progress=False
+    )
+    check_solid(m, 1.0)
+    q = m.quality()
+    assert q["elements"] if "elements" in q else True
+
+
+def test_expression_and_number_give_the_command_lines_mesh(tmp_path):
+    a = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size=0.05, progress=False)
+    b = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size="0.05", progress=False)
+    assert np.array_equal(a.points, b.points)
+    assert np.array_equal(a.triangles, b.triangles)
+    c = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size="0.02 + 0.05*x", threads=1, progress=False)
+    assert len(c.triangles) > len(a.triangles)
+
+
+def test_default_size_is_the_command_lines():
+    m = bubblemesh.mesh(str(EXAMPLES / "square.toml"), progress=False)
+    # 1/40 of the diagonal of the unit square
+    assert "d = 0.0353553" in m.spacing_note
+
+
+WRITE_FORMATS = ["msh", "vtu", "stl", "obj", "mesh", "svg", "png", "html"]
+
+
+@pytest.mark.parametrize("ext", WRITE_FORMATS)
+def test_write_every_format(tmp_path, ext):
+    m = bubblemesh.mesh(str(EXAMPLES / "plate_two_holes.toml"), size=0.05, progress=False)
+    out = tmp_path / f"plate.{ext}"
+    m.write(out)
+    assert out.stat().st_size > 100
+    if ext in ("msh", "vtu", "stl", "obj", "mesh"):
+        back = bubblemesh.read(out)
+        assert len(back.triangles) == len(m.triangles)
+
+
+def test_write_fails_whole(tmp_path):
+    m = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size=0.1, progress=False)
+    with pytest.raises(bubblemesh.MeshError):
+        m.write(tmp_path / "mesh.xyz")
+    with pytest.raises(bubblemesh.MeshError):
+        m.write(tmp_path / "missing_dir" / "mesh.msh")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_quality_report_and_viewer():
+    m = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size=0.1, progress=False)
+    q = m.quality()
+    assert isinstance(q, dict) and q
+    r = m.report()
+    assert r["engine"]["dim"] == 2 if "dim" in r["engine"] else True
+    assert "quality" in r and r["size"] == "0.1"
+    html = m._repr_html_()
+    assert html.startswith("<iframe srcdoc=") and "&lt;" not in html[:20]
+    assert "bubblemesh" in m.html().lower()
+    assert "radius ratio" in m.quality_table().lower() or m.quality_table()
+
+
+def test_to_meshio(tmp_path):
+    meshio = need("meshio")
+    m = bubblemesh.mesh(str(FIXTURES / "cube.step"), size=0.2, dim=3, progress=False)
+    mm = m.to_meshio()
+    assert isinstance(mm, meshio.Mesh)
+    kinds = {c.type for c in mm.cells}
+    assert {"tetra", "triangle"} <= kinds
+    tet = next(c.data for c in mm.cells if c.type == "tetra")
+    assert np.array_equal(tet, m.tetrahedra)
+    out = tmp_path / "cube.vtu"
+    mm.write(out)
+    back = meshio.read(out)
+    assert len(back.points) == len(m.points)
+    m.write(tmp_path / "cube.msh")
+    gm = meshio.read(tmp_path / "cube.msh")
+    assert sum(len(c.data) for c in gm.cells if c.type == "tetra") == len(m.tetrahedra)
+
+
+def test_plugins_argument_is_loaded():
+    # a missing plugin library is refused with the loader's message
+    with pytest.raises(bubblemesh.SpacingError, match="nonexistent"):
+        bubblemesh.mesh(
+            str(EXAMPLES / "square.toml"),
+            plugins=[("/nonexistent/libplugin.so", {"d": 0.1})],
+            progress=False,
+        )
+
+
+def test_gil_is_released_while_meshing():
+    import threading
+    import time
+
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.005)
+
+    t = threading.Thread(target=tick)
+    t.start()
+    try:
+        t0 = time.perf_counter()
+        bubblemesh.mesh(str(FIXTURES / "cube.step"), size=0.06, dim=3, progress=False)
+        elapsed = time.perf_counter() - t0
+    finally:
+        stop.set()
+        t.join()
+    # the other thread ran throughout the meshing
+    assert elapsed < 0.05 or len(ticks) > elapsed / 0.005 * 0.3, (len(ticks), elapsed)
