@@ -9,8 +9,9 @@
 //! - where it asks for one point at a time (stage 1, the edge chains, new
 //!   bubbles of population control), from a grid of the callable's values
 //!   over the model's box: cells of 1/[`CELLS`] of the box's diagonal,
-//!   evaluated lazily in tiles of `TILE`³ cells (one call per tile, where
-//!   the engine first asks), interpolated trilinearly.
+//!   evaluated lazily in tiles of `TILE`³ cells (fewer along an axis the
+//!   box is thin in; one call per tile, where the engine first asks),
+//!   interpolated trilinearly.
 //!
 //! Every value is checked (finite, > 0) and the result's shape too; the
 //! first failure, or an exception of the callable, cancels the run
@@ -42,6 +43,9 @@ pub(crate) struct PySpacing {
     h: f64,
     /// Cells along x, y, z.
     cells: [i64; 3],
+    /// Cells along each side of a tile: [`TILE`], fewer along a thin axis
+    /// (a flat model's z).
+    tile_cells: [i64; 3],
     /// Values at the nodes of each tile evaluated so far.
     tiles: RwLock<HashMap<[i64; 3], Arc<Vec<f64>>>>,
 }
@@ -63,12 +67,14 @@ impl PySpacing {
         let lo = P3::new(lo.x - pad, lo.y - pad, lo.z - pad);
         let ext = hi - lo;
         let cells = [ext.x, ext.y, ext.z].map(|e| ((e + pad) / h).ceil().max(1.0) as i64);
+        let tile_cells = cells.map(|c| c.min(TILE as i64));
         PySpacing {
             func,
             run,
             lo,
             h,
             cells,
+            tile_cells,
             tiles: RwLock::new(HashMap::new()),
         }
     }
@@ -136,16 +142,12 @@ impl PySpacing {
         if let Some(v) = self.tiles.read().unwrap_or_else(|p| p.into_inner()).get(&t) {
             return v.clone();
         }
-        let m = TILE + 1;
-        let mut pts = Vec::with_capacity(m * m * m * 3);
-        for i in 0..m {
-            for j in 0..m {
-                for k in 0..m {
-                    let c = [
-                        t[0] * TILE as i64 + i as i64,
-                        t[1] * TILE as i64 + j as i64,
-                        t[2] * TILE as i64 + k as i64,
-                    ];
+        let tc = self.tile_cells;
+        let mut pts = Vec::with_capacity(((tc[0] + 1) * (tc[1] + 1) * (tc[2] + 1) * 3) as usize);
+        for i in 0..=tc[0] {
+            for j in 0..=tc[1] {
+                for k in 0..=tc[2] {
+                    let c = [t[0] * tc[0] + i, t[1] * tc[1] + j, t[2] * tc[2] + k];
                     pts.push(self.lo.x + c[0] as f64 * self.h);
                     pts.push(self.lo.y + c[1] as f64 * self.h);
                     pts.push(self.lo.z + c[2] as f64 * self.h);
@@ -169,6 +171,7 @@ impl PySpacing {
             (p.y - self.lo.y) / self.h,
             (p.z - self.lo.z) / self.h,
         ];
+        let tc = self.tile_cells;
         let mut tile = [0i64; 3];
         let mut local = [0.0f64; 3];
         let mut cell = [0usize; 3];
@@ -178,16 +181,16 @@ impl PySpacing {
             } else {
                 0.0
             };
-            let t = ((c / TILE as f64).floor() as i64).min((self.cells[a] - 1) / TILE as i64);
-            let l = (c - (t * TILE as i64) as f64).clamp(0.0, TILE as f64);
-            let ci = (l.floor() as usize).min(TILE - 1);
+            let t = ((c / tc[a] as f64).floor() as i64).min((self.cells[a] - 1) / tc[a]);
+            let l = (c - (t * tc[a]) as f64).clamp(0.0, tc[a] as f64);
+            let ci = (l.floor() as usize).min(tc[a] as usize - 1);
             tile[a] = t;
             cell[a] = ci;
             local[a] = l - ci as f64;
         }
         let v = self.tile(tile);
-        let m = TILE + 1;
-        let at = |i: usize, j: usize, k: usize| v[(i * m + j) * m + k];
+        let (mj, mk) = (tc[1] as usize + 1, tc[2] as usize + 1);
+        let at = |i: usize, j: usize, k: usize| v[(i * mj + j) * mk + k];
         let [fx, fy, fz] = local;
         let [i, j, k] = cell;
         let c00 = at(i, j, k) * (1.0 - fx) + at(i + 1, j, k) * fx;
