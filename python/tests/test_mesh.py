@@ -160,6 +160,41 @@ def test_to_meshio(tmp_path):
     assert sum(len(c.data) for c in gm.cells if c.type == "tetra") == len(m.tetrahedra)
 
 
+def test_c_plugin_spacing(tmp_path):
+    """The C example plugin (plugins/c-example), built with cc, as `plugins`:
+    the same mesh as the command line's view spacing d = 0.05 |(0, 0, 5) - x|."""
+    import shutil
+    import subprocess
+
+    from conftest import ROOT
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        if os.environ.get("CI"):
+            pytest.fail("a C compiler is required under CI")
+        print("SKIP: no C compiler (cc) to build the example plugin")
+        pytest.skip("no C compiler")
+    lib = tmp_path / "libview_c.so"
+    src = ROOT / "plugins" / "c-example"
+    subprocess.run(
+        [cc, "-std=c99", "-O2", "-shared", "-fPIC", "-I", str(src), str(src / "view_plugin.c"),
+         "-o", str(lib), "-lm"],
+        check=True,
+    )
+    sphere = str(EXAMPLES / "sphere.toml")
+    by_plugin = bubblemesh.mesh(
+        sphere, plugins=[(lib, {"viewpoint": (0, 0, 5), "factor": 0.05})], progress=False
+    )
+    by_view = bubblemesh.mesh(sphere, view=(0, 0, 5, 0.05), progress=False)
+    assert "plugin" in by_plugin.spacing_note
+    assert len(by_plugin.triangles) > 100
+    assert np.array_equal(by_plugin.triangles, by_view.triangles)
+    assert np.allclose(by_plugin.points, by_view.points)
+    # a plugin refusing its arguments fails with its message
+    with pytest.raises(bubblemesh.SpacingError, match="factor"):
+        bubblemesh.mesh(sphere, plugins=[(lib, ["viewpoint=0,0,5", "factor=-1"])], progress=False)
+
+
 def test_plugins_argument_is_loaded():
     # a missing plugin library is refused with the loader's message
     with pytest.raises(bubblemesh.SpacingError, match="nonexistent"):
