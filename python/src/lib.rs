@@ -16,9 +16,7 @@
 //! and build123d objects into STEP files and a Python callable into the
 //! `size_fn` argument.
 
-// PyO3's macros expand to `unsafe` code (the C API), so `forbid` is out;
-// this crate writes none itself.
-#![deny(unsafe_code)]
+#![forbid(unsafe_code)]
 
 mod meshobj;
 mod spacing;
