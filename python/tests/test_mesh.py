@@ -33,6 +33,19 @@ def test_cadquery_box_with_hole_into_tetrahedra():
     assert len(m.triangles) > 0 and len(m.triangle_entities) == len(m.triangles)
 
 
+def test_cadquery_assembly_one_volume_per_part():
+    cq = need("cadquery")
+    asm = cq.Assembly()
+    asm.add(cq.Workplane().box(2, 2, 2), name="block")
+    asm.add(cq.Workplane().sphere(0.8), name="ball", loc=cq.Location((3, 0, 0)))
+    m = bubblemesh.mesh(asm, size=0.2, dim=3, progress=False)
+    volumes = {m.entity_names[(3, int(i))] for i in np.unique(m.tetrahedron_entities)}
+    assert volumes == {"block", "ball"}
+    v = tet_volumes(m.points, m.tetrahedra)
+    assert (v > 0).all()
+    assert abs(v.sum() - (8 + 4 / 3 * math.pi * 0.8**3)) / v.sum() < 0.02
+
+
 def test_build123d_part_into_tetrahedra():
     bd = need("build123d")
     with bd.BuildPart() as builder:

@@ -115,7 +115,14 @@ def _export_step(obj, path):
     if top == "cadquery":
         import cadquery
 
-        cadquery.exporters.export(obj, path, exportType="STEP")
+        if isinstance(obj, cadquery.Assembly):
+            # one volume per part, named after it
+            if hasattr(obj, "export"):
+                obj.export(path, exportType="STEP")
+            else:
+                obj.save(path, exportType="STEP")
+        else:
+            cadquery.exporters.export(obj, path, exportType="STEP")
         return
     if top == "build123d":
         import build123d
@@ -170,8 +177,9 @@ def mesh(
     ----------
     source
         A path to a STEP (``.step``, ``.stp``) or domain (``.toml``) file, or
-        a CadQuery ``Workplane``/``Shape`` or build123d ``Part``/``Shape``
-        (exported to a temporary STEP file by its own library).
+        a CadQuery ``Workplane``/``Shape``/``Assembly`` or build123d
+        ``Part``/``Shape``/builder (exported to a temporary STEP file by its
+        own library).
     size
         The node spacing d(x, y, z): a number, an expression string in the
         command line's syntax (``"0.02 + 0.05*x"``), or a callable taking an
