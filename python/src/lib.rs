@@ -262,13 +262,14 @@ fn mesh(
     bubblemesh_run::check_dim(dim).map_err(to_py)?;
     let model = Arc::new(model);
     let run = Arc::new(Run::default());
-    let custom = size_fn.map(|f| {
-        let s = PySpacing::new(f, &model, run.clone());
-        (
-            Box::new(s) as Box<dyn bubblemesh_core::Spacing>,
+    let custom = match size_fn {
+        Some(f) => Some((
+            Box::new(PySpacing::new(py, f, &model, run.clone())?)
+                as Box<dyn bubblemesh_core::Spacing>,
             "<Python callable>".to_string(),
-        )
-    });
+        )),
+        None => None,
+    };
     let request = SpacingRequest {
         custom,
         curvature,

@@ -8,7 +8,8 @@
 //!   quality report's L/d), with exactly those points;
 //! - where it asks for one point at a time (stage 1, the edge chains, new
 //!   bubbles of population control), from a grid of the callable's values
-//!   over the model's box: cells of 1/[`CELLS`] of the box's diagonal,
+//!   over the model's box: cells of a quarter of the least spacing found
+//!   on a first sample ([`PySpacing::new`]),
 //!   evaluated lazily in tiles of `TILE`³ cells (fewer along an axis the
 //!   box is thin in; one call per tile, where the engine first asks),
 //!   interpolated trilinearly.
@@ -28,8 +29,13 @@ use pyo3::prelude::*;
 
 use crate::{Run, SpacingError};
 
-/// Cells of the grid along the model box's diagonal.
-const CELLS: f64 = 256.0;
+/// The fewest cells of the grid along the model box's diagonal.
+const MIN_CELLS: f64 = 64.0;
+/// The most cells along the diagonal (surfaces and curves).
+const MAX_CELLS: f64 = 1024.0;
+/// The most cells along the diagonal of a model with volumes (the grid
+/// fills them).
+const MAX_CELLS_3D: f64 = 400.0;
 /// Cells along each side of a tile (one call of the callable).
 const TILE: usize = 8;
 
@@ -51,8 +57,18 @@ pub(crate) struct PySpacing {
 }
 
 impl PySpacing {
-    /// `func` as the spacing of `model`'s run `run`.
-    pub(crate) fn new(func: Py<PyAny>, model: &Model, run: Arc<Run>) -> PySpacing {
+    /// `func` as the spacing of `model`'s run `run`. The grid's cell is a
+    /// quarter of the least spacing the callable gives at the model's
+    /// vertices, along its edges and on a 17-point lattice over its box (one
+    /// call, which also checks the callable before meshing), within
+    /// 1/[`MIN_CELLS`] to 1/[`MAX_CELLS`] of the box's diagonal
+    /// (1/[`MAX_CELLS_3D`] with volumes).
+    pub(crate) fn new(
+        py: Python<'_>,
+        func: Py<PyAny>,
+        model: &Model,
+        run: Arc<Run>,
+    ) -> PyResult<PySpacing> {
         let (lo, hi) = model
             .bbox()
             .unwrap_or((P3::new(0.0, 0.0, 0.0), P3::new(1.0, 1.0, 1.0)));
@@ -62,13 +78,19 @@ impl PySpacing {
         } else {
             1.0
         };
-        let h = diag / CELLS;
+        let d_min = least_spacing(py, &func, model, lo, hi, diag)?;
+        let max_cells = if model.volumes.is_empty() {
+            MAX_CELLS
+        } else {
+            MAX_CELLS_3D
+        };
+        let h = (0.25 * d_min).clamp(diag / max_cells, diag / MIN_CELLS);
         let pad = 2.0 * h;
         let lo = P3::new(lo.x - pad, lo.y - pad, lo.z - pad);
         let ext = hi - lo;
         let cells = [ext.x, ext.y, ext.z].map(|e| ((e + pad) / h).ceil().max(1.0) as i64);
         let tile_cells = cells.map(|c| c.min(TILE as i64));
-        PySpacing {
+        Ok(PySpacing {
             func,
             run,
             lo,
@@ -76,7 +98,7 @@ impl PySpacing {
             cells,
             tile_cells,
             tiles: RwLock::new(HashMap::new()),
-        }
+        })
     }
 
     /// The callable at `points`, checked; cancels the run and unwinds on a
@@ -84,7 +106,7 @@ impl PySpacing {
     fn eval(&self, points: Vec<f64>) -> Vec<f64> {
         self.run.stop_if_cancelled();
         let n = points.len() / 3;
-        match Python::with_gil(|py| self.call(py, points, n)) {
+        match Python::with_gil(|py| call(py, &self.func, points, n)) {
             Ok(v) => v,
             Err(e) => {
                 self.run.cancel(e);
@@ -92,49 +114,6 @@ impl PySpacing {
                 unreachable!("the run was just cancelled")
             }
         }
-    }
-
-    /// Calls the function on the `n` points (x, y, z flattened) and checks
-    /// what it returns.
-    fn call(&self, py: Python<'_>, points: Vec<f64>, n: usize) -> PyResult<Vec<f64>> {
-        let arr = Array2::from_shape_vec((n, 3), points)
-            .expect("three coordinates per point")
-            .into_pyarray(py);
-        let got = self.func.call1(py, (arr.clone(),)).map_err(|e| {
-            let err = SpacingError::new_err(format!("the spacing callable raised {e}"));
-            err.set_cause(py, Some(e));
-            err
-        })?;
-        let np = py.import("numpy")?;
-        let values = np
-            .call_method1("asarray", (got.bind(py), "float64"))
-            .map_err(|e| {
-                SpacingError::new_err(format!(
-                    "the spacing callable returned something that is not an array of numbers ({e})"
-                ))
-            })?;
-        let values = values
-            .downcast::<numpy::PyArrayDyn<f64>>()
-            .map_err(|_| SpacingError::new_err("the spacing callable returned no float array"))?;
-        if values.shape() != [n] {
-            return Err(SpacingError::new_err(format!(
-                "the spacing callable returned an array of shape {:?} for {n} points; expected ({n},)",
-                values.shape()
-            )));
-        }
-        let out: Vec<f64> = values.readonly().as_array().iter().copied().collect();
-        if let Some(k) = out.iter().position(|d| !(d.is_finite() && *d > 0.0)) {
-            let p = arr.readonly();
-            let p = p.as_array();
-            return Err(SpacingError::new_err(format!(
-                "the spacing callable returned {} at ({}, {}, {}): a spacing must be finite and > 0",
-                out[k],
-                p[[k, 0]],
-                p[[k, 1]],
-                p[[k, 2]]
-            )));
-        }
-        Ok(out)
     }
 
     /// The values at the nodes of tile `t`, evaluated on first use.
@@ -218,4 +197,84 @@ impl Spacing for PySpacing {
             .collect();
         out.copy_from_slice(&self.eval(pts));
     }
+}
+/// Calls the function on the `n` points (x, y, z flattened) and checks
+/// what it returns.
+fn call(py: Python<'_>, func: &Py<PyAny>, points: Vec<f64>, n: usize) -> PyResult<Vec<f64>> {
+    let arr = Array2::from_shape_vec((n, 3), points)
+        .expect("three coordinates per point")
+        .into_pyarray(py);
+    let got = func.call1(py, (arr.clone(),)).map_err(|e| {
+        let err = SpacingError::new_err(format!("the spacing callable raised {e}"));
+        err.set_cause(py, Some(e));
+        err
+    })?;
+    let np = py.import("numpy")?;
+    let values = np
+        .call_method1("asarray", (got.bind(py), "float64"))
+        .map_err(|e| {
+            SpacingError::new_err(format!(
+                "the spacing callable returned something that is not an array of numbers ({e})"
+            ))
+        })?;
+    let values = values
+        .downcast::<numpy::PyArrayDyn<f64>>()
+        .map_err(|_| SpacingError::new_err("the spacing callable returned no float array"))?;
+    if values.shape() != [n] {
+        return Err(SpacingError::new_err(format!(
+            "the spacing callable returned an array of shape {:?} for {n} points; expected ({n},)",
+            values.shape()
+        )));
+    }
+    let out: Vec<f64> = values.readonly().as_array().iter().copied().collect();
+    if let Some(k) = out.iter().position(|d| !(d.is_finite() && *d > 0.0)) {
+        let p = arr.readonly();
+        let p = p.as_array();
+        return Err(SpacingError::new_err(format!(
+            "the spacing callable returned {} at ({}, {}, {}): a spacing must be finite and > 0",
+            out[k],
+            p[[k, 0]],
+            p[[k, 1]],
+            p[[k, 2]]
+        )));
+    }
+    Ok(out)
+}
+
+/// The least value of `func` at `model`'s vertices, along its edges and on
+/// a lattice of 17 points a side over the box `lo..hi` (one along an axis
+/// the box is flat in), in one call.
+fn least_spacing(
+    py: Python<'_>,
+    func: &Py<PyAny>,
+    model: &Model,
+    lo: P3,
+    hi: P3,
+    diag: f64,
+) -> PyResult<f64> {
+    let mut pts: Vec<P3> = model.vertices.iter().map(|v| v.point).collect();
+    for e in &model.edges {
+        for k in 0..=8 {
+            pts.push(e.curve.point(e.t0 + (e.t1 - e.t0) * k as f64 / 8.0));
+        }
+    }
+    let ext = hi - lo;
+    let steps = [ext.x, ext.y, ext.z].map(|e| if e > 1e-9 * diag { 16 } else { 0 });
+    for i in 0..=steps[0] {
+        for j in 0..=steps[1] {
+            for k in 0..=steps[2] {
+                let f = |n: usize, s: usize| if s == 0 { 0.0 } else { n as f64 / s as f64 };
+                pts.push(P3::new(
+                    lo.x + ext.x * f(i, steps[0]),
+                    lo.y + ext.y * f(j, steps[1]),
+                    lo.z + ext.z * f(k, steps[2]),
+                ));
+            }
+        }
+    }
+    pts.retain(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite());
+    let n = pts.len();
+    let flat: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    let values = call(py, func, flat, n)?;
+    Ok(values.into_iter().fold(f64::INFINITY, f64::min))
 }
