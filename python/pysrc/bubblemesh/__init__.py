@@ -109,6 +109,30 @@ def _arg_text(v):
     return str(v)
 
 
+def _notebook_progress():
+    """A progress callback drawing a tqdm bar in a Jupyter notebook (where
+    stderr is no terminal), or None outside one or without tqdm."""
+    import sys
+
+    if "ipykernel" not in sys.modules:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return None
+    bar = tqdm(total=1, unit="step", leave=False)
+
+    def progress(info):
+        if info["event"] == "step":
+            bar.total = info["max_steps"]
+            bar.n = info["step"]
+            bar.set_description(f"stage 2 on {['vertex', 'edge', 'face', 'volume'][info['dim']]} {info['entity']}")
+            bar.refresh()
+
+    progress.close = bar.close
+    return progress
+
+
 def _export_step(obj, path):
     """Writes a CadQuery or build123d object as STEP through its own library."""
     top = type(obj).__module__.split(".")[0]
@@ -205,7 +229,8 @@ def mesh(
         Threads for the relaxation (default: every core); the mesh does not
         depend on it.
     progress
-        ``None``: a progress bar when stderr is a terminal; ``False``: none;
+        ``None``: a progress bar when stderr is a terminal (in a Jupyter
+        notebook, a tqdm bar when tqdm is installed); ``False``: none;
         a callable: called with a dict (``event``: "stage1", "step", "pass"
         or "done"; ``dim``, ``entity``, ``elapsed``; ``step`` and
         ``max_steps`` for steps, at most every 0.1 s); returning ``False``
@@ -228,7 +253,8 @@ def mesh(
     if curvature is not None:
         curvature = float(curvature)
     if progress is None:
-        show, callback = True, None
+        callback = _notebook_progress()
+        show = callback is None
     elif progress is False:
         show, callback = False, None
     elif progress is True:
@@ -241,25 +267,29 @@ def mesh(
         if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 0:
             raise InputError(f"threads={threads!r}: expected a whole number of threads")
         threads = int(threads)
-    with _source_path(source) as (path, name):
-        result = _mesh(
-            path,
-            size=size_text,
-            size_fn=size_fn,
-            dim=dim,
-            curvature=curvature,
-            view=_view(view),
-            plugins=_plugins(plugins),
-            fast=bool(fast),
-            threads=threads,
-            progress=callback,
-            show_progress=show,
-            unit=unit,
-            d_min=d_min,
-            d_max=d_max,
-            combine=combine,
-            name=name,
-        )
+    try:
+        with _source_path(source) as (path, name):
+            result = _mesh(
+                path,
+                size=size_text,
+                size_fn=size_fn,
+                dim=dim,
+                curvature=curvature,
+                view=_view(view),
+                plugins=_plugins(plugins),
+                fast=bool(fast),
+                threads=threads,
+                progress=callback,
+                show_progress=show,
+                unit=unit,
+                d_min=d_min,
+                d_max=d_max,
+                combine=combine,
+                name=name,
+            )
+    finally:
+        if progress is None and callback is not None:
+            callback.close()
     for w in result.warnings:
         warnings.warn(w, MeshWarning, stacklevel=2)
     return result
