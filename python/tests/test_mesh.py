@@ -148,14 +148,17 @@ def test_write_fails_whole(tmp_path):
 def test_quality_report_and_viewer():
     m = bubblemesh.mesh(str(EXAMPLES / "square.toml"), size=0.1, progress=False)
     q = m.quality()
-    assert isinstance(q, dict) and q
+    assert q["counts"]["triangles"] == len(m.triangles)
+    assert 0.9 < q["spacing"]["ratio_mean"] < 1.1
     r = m.report()
-    assert r["engine"]["dim"] == 2 if "dim" in r["engine"] else True
-    assert "quality" in r and r["size"] == "0.1"
-    html = m._repr_html_()
-    assert html.startswith("<iframe srcdoc=") and "&lt;" not in html[:20]
-    assert "bubblemesh" in m.html().lower()
-    assert "radius ratio" in m.quality_table().lower() or m.quality_table()
+    assert r["dim"] == 2 and r["size"] == "0.1" and r["fast"] is False
+    assert r["engine"]["nodes"] == len(m.points)
+    assert r["quality"] == q
+    assert m.quality_table().startswith(f"mesh        {len(m.points)} nodes")
+    page = m.html()
+    assert page.startswith("<!DOCTYPE html>") and "square.toml" in page
+    inline = m._repr_html_()
+    assert inline.startswith("<iframe srcdoc=") and '"' not in inline[len('<iframe srcdoc="'):inline.index('" style')]
 
 
 def test_to_meshio(tmp_path):
