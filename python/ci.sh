@@ -13,8 +13,9 @@ work="$(mktemp -d "${TMPDIR:-/tmp}/bubblemesh-py-ci.XXXXXX")"
 trap 'rm -rf "$work"' EXIT
 
 # the crate's own checks (it is a workspace of its own, outside the main
-# one's `cargo fmt --all`)
+# one's `cargo fmt --all` and `cargo clippy --workspace`)
 cargo fmt --manifest-path "$here/Cargo.toml" -- --check
+cargo clippy --manifest-path "$here/Cargo.toml" --features extension-module --all-targets -- -D warnings
 
 # build: maturin in a venv of its own
 python3 -m venv "$work/build"
