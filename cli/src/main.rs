@@ -25,21 +25,26 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Instant;
 
-mod error;
 mod frames;
 mod remesh;
 
-use bubblemesh_core::engine::{Event, Integrator, VolumeLattice};
+use bubblemesh_core::engine::{Event, Integrator};
 use bubblemesh_core::quality::{self, QualityReport};
 use bubblemesh_core::spacing::Expr;
-use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, P3, V3};
+use bubblemesh_core::{mesh_model, Mesh, Model, Options, Report, Spacing, V3};
 use bubblemesh_io::output::{OutputKind, OutputPath, OutputSet};
-use bubblemesh_plugin_host::{PluginSpacing, PluginSpec};
-use bubblemesh_viz::geometry::{node_spacing, node_spacing_from_edges, Measures};
-use bubblemesh_viz::{ColorBy, Kind, PictureOptions, ViewerOptions};
+use bubblemesh_plugin_host::PluginSpec;
+use bubblemesh_run::{
+    output_kind, parse_threads, parse_unit, read_model, significant, stage_bytes, stage_output,
+    thread_count, Combine, Drawing, EngineSettings, PictureSettings, SpacingRequest,
+};
+use bubblemesh_viz::geometry::Measures;
+use bubblemesh_viz::{ColorBy, Kind, PictureOptions};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
-use error::CliError;
+/// The command line's error: [`bubblemesh_run::Error`], whose text is
+/// printed after `error: `.
+type CliError = bubblemesh_run::Error;
 
 #[derive(Parser)]
 #[command(
@@ -112,41 +117,24 @@ struct PictureArgs {
     plots: Option<PathBuf>,
 }
 
-/// The most threads `--threads` accepts: 4 per core, at least 64, at most
-/// 1024 (more only cost memory and start-up time; far more make thread
-/// creation fail).
-fn max_threads() -> usize {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    cores.saturating_mul(4).clamp(64, 1024)
-}
-
-/// Parses `--threads`.
-fn parse_threads(s: &str) -> Result<usize, CliError> {
-    let max = max_threads();
-    let n: u64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("'{s}' is not a whole number of threads"))?;
-    if n == 0 || n > max as u64 {
-        return Err(CliError::Message(format!(
-            "{n} is not in 1..={max} (4 per core, at least 64, at most 1024)"
-        )));
-    }
-    Ok(n as usize)
-}
-
-/// The threads of a run: `--threads`, else one per core.
-fn thread_count(given: Option<usize>) -> usize {
-    given.unwrap_or_else(|| {
-        std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(max_threads())
-    })
-}
-
 /// Parses `--view`.
 fn parse_view_arg(s: &str) -> Result<V3, CliError> {
     Ok(bubblemesh_viz::view::parse_view(s)?)
+}
+
+impl PictureArgs {
+    /// The picture settings these options ask for.
+    fn settings(&self) -> PictureSettings {
+        PictureSettings {
+            color: match self.color {
+                ColorArg::Quality => ColorBy::Quality,
+                ColorArg::Entity => ColorBy::Entity,
+            },
+            view: self.view,
+            bubbles: self.bubbles,
+            width: self.width,
+        }
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -349,209 +337,6 @@ fn plugin_specs(matches: &clap::ArgMatches, a: &MeshArgs) -> Result<Vec<PluginSp
     Ok(specs)
 }
 
-/// What the STEP reader found, for the report: per face whose boundary
-/// was off its surface, the largest gap (model units) it closed by
-/// projection; the degenerate edges read as vertices.
-fn step_summary(info: &bubblemesh_truck::StepInfo) -> serde_json::Value {
-    let gaps: Vec<serde_json::Value> = info
-        .face_gap
-        .iter()
-        .enumerate()
-        .filter(|(_, &g)| g > 0.0)
-        .map(|(f, &g)| {
-            serde_json::json!({
-                "face": f,
-                "step_id": info.face_ids.get(f),
-                "largest_boundary_gap": g,
-            })
-        })
-        .collect();
-    serde_json::json!({
-        "length_unit": info.length_unit.as_ref().map(|u| serde_json::json!({
-            "name": u.name,
-            "metres": u.metres,
-        })),
-        "file_length_unit": info.file_length_unit.as_ref().map(|u| serde_json::json!({
-            "name": u.name,
-            "metres": u.metres,
-        })),
-        "face_gaps": gaps,
-        "degenerate_edges": info.degenerate_edges,
-    })
-}
-
-/// `--unit`'s value: a length unit the STEP reader converts to.
-fn parse_unit(s: &str) -> Result<bubblemesh_truck::LengthUnit, String> {
-    bubblemesh_truck::LengthUnit::parse(s)
-        .ok_or_else(|| format!("unknown length unit '{s}'; expected mm, cm, m, in or ft"))
-}
-
-/// Reads the input model, choosing the reader by extension; for STEP files
-/// also what the reader found ([`step_summary`]), converted to `unit` when
-/// one is given.
-fn read_model(
-    path: &Path,
-    unit: Option<&bubblemesh_truck::LengthUnit>,
-) -> Result<(Model, Option<serde_json::Value>), CliError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .unwrap_or_default();
-    match ext.as_str() {
-        "toml" if unit.is_some() => Err(CliError::Message(format!(
-            "{}: --unit applies to STEP files; a domain file has no length unit",
-            path.display()
-        ))),
-        "toml" => Ok((bubblemesh_analytic::read_domain(path)?, None)),
-        "step" | "stp" => {
-            let options = bubblemesh_truck::StepOptions {
-                unit: unit.cloned(),
-            };
-            let s = bubblemesh_truck::read_step_with(path, &options)?;
-            let summary = step_summary(&s.info);
-            Ok((s.model, Some(summary)))
-        }
-        _ => Err(CliError::Message(format!(
-            "{}: unknown input type '.{ext}'; expected a domain file (.toml) or STEP (.step, .stp)",
-            path.display()
-        ))),
-    }
-}
-
-/// `x` rounded to `digits` significant digits, printed in full (1e-6 model
-/// units stay readable instead of rounding to 0.000000).
-fn significant(x: f64, digits: usize) -> String {
-    let rounded: f64 = format!("{:.*e}", digits.saturating_sub(1), x)
-        .parse()
-        .unwrap_or(x);
-    format!("{rounded}")
-}
-
-/// Parses the spacing expression and checks it at sample points of the model.
-fn parse_spacing(text: &str, model: &Model) -> Result<Expr, CliError> {
-    let e = Expr::parse(text)?;
-    let mut samples: Vec<P3> = model.vertices.iter().map(|v| v.point).collect();
-    for edge in &model.edges {
-        for k in 0..=8 {
-            samples.push(
-                edge.curve
-                    .point(edge.t0 + (edge.t1 - edge.t0) * k as f64 / 8.0),
-            );
-        }
-    }
-    e.check_positive(&samples)?;
-    Ok(e)
-}
-
-/// A spacing, its one-line description and the plugins among its sources.
-type SpacingParts = (Box<dyn Spacing>, String, Vec<PluginSpacing>);
-
-/// The spacing the command line asks for: the --size expression, the
-/// curvature and view sources, combined by minimum or product and clamped
-/// to --d-min/--d-max. Returns it with a one-line description and the
-/// plugins among the sources (whose failures the caller must check).
-fn build_spacing(
-    a: &MeshArgs,
-    size_text: &str,
-    model: &Arc<Model>,
-) -> Result<SpacingParts, CliError> {
-    use bubblemesh_core::curvature::{Curvature, View};
-    use bubblemesh_core::spacing::{Clamped, MinOf, ProductOf};
-    let positive = |v: f64, what: &str| -> Result<f64, CliError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(CliError::Message(format!(
-                "{what} must be a positive number (got {v})"
-            )))
-        }
-    };
-    let d_min = a.d_min.map(|v| positive(v, "--d-min")).transpose()?;
-    let d_max = a.d_max.map(|v| positive(v, "--d-max")).transpose()?;
-    if let (Some(lo), Some(hi)) = (d_min, d_max) {
-        if lo > hi {
-            return Err(CliError::Message(format!(
-                "--d-min {lo} is larger than --d-max {hi}"
-            )));
-        }
-    }
-    let mut sources: Vec<Box<dyn Spacing>> = Vec::new();
-    let mut words: Vec<String> = Vec::new();
-    if !size_text.is_empty() {
-        sources.push(Box::new(parse_spacing(size_text, model)?));
-        words.push(format!("d = {size_text}"));
-    }
-    if let Some(eps) = a.curvature {
-        let eps = positive(eps, "--curvature")?;
-        let lo = d_min.unwrap_or(eps);
-        let hi = d_max.unwrap_or(model.size() / 10.0).max(lo);
-        sources.push(Box::new(Curvature::new(model.clone(), eps, lo, hi)));
-        words.push(format!("curvature eps = {eps} (d in [{lo}, {hi}])"));
-    }
-    if let Some(v) = &a.view_spacing {
-        let parts: Vec<f64> = v
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| {
-                CliError::Message(format!(
-                    "--view-spacing '{v}': expected four numbers X,Y,Z,A"
-                ))
-            })?;
-        if parts.len() != 4 || parts.iter().any(|x| !x.is_finite()) {
-            return Err(CliError::Message(format!(
-                "--view-spacing '{v}': expected four numbers X,Y,Z,A"
-            )));
-        }
-        let factor = positive(parts[3], "the --view-spacing factor A")?;
-        let lo = d_min.unwrap_or(f64::MIN_POSITIVE);
-        let hi = d_max.unwrap_or(f64::INFINITY);
-        sources.push(Box::new(View {
-            viewpoint: P3::new(parts[0], parts[1], parts[2]),
-            factor,
-            d_min: lo,
-            d_max: hi,
-        }));
-        words.push(format!(
-            "view from ({}, {}, {}) x {factor}",
-            parts[0], parts[1], parts[2]
-        ));
-    }
-    let mut plugins = Vec::new();
-    for spec in &a.plugin_specs {
-        let p = PluginSpacing::load(spec, model.clone())?;
-        words.push(format!(
-            "plugin '{}' ({})",
-            p.plugin().name(),
-            spec.path.display()
-        ));
-        plugins.push(p.clone());
-        sources.push(Box::new(p));
-    }
-    let joined = match a.combine {
-        CombineArg::Min => words.join(", min with "),
-        CombineArg::Product => words.join(" times "),
-    };
-    let combined: Box<dyn Spacing> = if sources.len() == 1 {
-        sources.pop().expect("one source")
-    } else {
-        match a.combine {
-            CombineArg::Min => Box::new(MinOf(sources)),
-            CombineArg::Product => Box::new(ProductOf(sources)),
-        }
-    };
-    let bounded: Box<dyn Spacing> = match (d_min, d_max) {
-        (None, None) => combined,
-        (lo, hi) => Box::new(Clamped {
-            inner: combined,
-            min: lo.unwrap_or(0.0),
-            max: hi.unwrap_or(f64::INFINITY),
-        }),
-    };
-    Ok((bounded, format!("spacing {joined}"), plugins))
-}
-
 /// `bubblemesh mesh`: checks the outputs, reads the model, builds the
 /// spacing, meshes, then stages and writes every output at once.
 fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
@@ -571,25 +356,24 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     // if it fails
     let mut out = prepare_mesh_outputs(&a)?;
     let (model, step_info) = read_model(&a.input, a.unit.as_ref())?;
-    if let Some(d) = a.dim {
-        if d == 0 || d > 3 {
-            return Err(CliError::Message(format!(
-                "--dim {d}: the dimension must be 1, 2 or 3"
-            )));
-        }
-    }
+    bubblemesh_run::check_dim(a.dim)?;
     let model = Arc::new(model);
-    let size_text = size_text(&a, &model)?;
-    let (spacing, spacing_note, plugins) = build_spacing(&a, &size_text, &model)?;
+    let request = spacing_request(&a);
+    let (size_text, default_d) =
+        bubblemesh_run::size_text(a.size.as_deref(), request.others_given(), &model, &a.input)?;
+    if let (Some(d), false) = (default_d, a.quiet) {
+        eprintln!(
+            "no --size given: using d = {} (1/40 of the bounding-box diagonal)",
+            significant(d, 6)
+        );
+    }
+    let built = bubblemesh_run::build_spacing(request, &size_text, &model)?;
+    let spacing_note = built.note.clone();
     // a plugin's failure (refusal, panic, NaN, d <= 0) is the cause of any
     // meshing error, and must fail the run even when a minimum hid it
-    let plugin_failure = || {
-        plugins
-            .iter()
-            .find_map(|p| p.failure())
-            .map(|f| CliError::Message(format!("{}: {f}", a.input.display())))
-    };
-    let spacing: &dyn Spacing = spacing.as_ref();
+    let input_name = a.input.display().to_string();
+    let plugin_failure = || built.plugin_failure(&input_name);
+    let spacing: &dyn Spacing = built.spacing.as_ref();
     let mut opts = engine_options(&a, &model, threads)?;
     let warm = match &a.remesh {
         Some(spec) => Some(remesh::prepare(spec, &a.input, &model, spacing, &mut opts)?),
@@ -613,7 +397,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
         &mesh,
         &a.output,
         kind,
-        &a.picture,
+        &a.picture.settings(),
         &Drawing {
             title: &title,
             spacing: Some(spacing),
@@ -678,9 +462,57 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     for line in said {
         eprintln!("{line}");
     }
-    warn_refined(&model, &report);
+    for line in bubblemesh_run::refined_warnings(&model, &report) {
+        eprintln!("{line}");
+    }
     warn_low_quality(&low);
     Ok(())
+}
+
+/// The spacing sources of `mesh` besides --size.
+fn spacing_request(a: &MeshArgs) -> SpacingRequest<'_> {
+    SpacingRequest {
+        custom: None,
+        curvature: a.curvature,
+        view_spacing: a.view_spacing.as_deref(),
+        combine: match a.combine {
+            CombineArg::Min => Combine::Min,
+            CombineArg::Product => Combine::Product,
+        },
+        plugins: &a.plugin_specs,
+        d_min: a.d_min,
+        d_max: a.d_max,
+    }
+}
+
+/// The engine's options of `mesh`; starts the `threads` every rayon loop
+/// (relaxation, volume polish) runs on, so that `--threads 1` is
+/// single-threaded throughout.
+fn engine_options(a: &MeshArgs, model: &Model, threads: usize) -> Result<Options, CliError> {
+    let settings = EngineSettings {
+        dim: a.dim,
+        fast: a.fast,
+        fcc: a.fcc,
+        integrator: match a.integrator {
+            IntegratorArg::Euler => Integrator::Euler,
+            IntegratorArg::Rk4 => Integrator::Rk4,
+        },
+        max_steps: a.max_steps,
+        threads,
+    };
+    let opts = settings.options(&a.input, model);
+    // the global pool is built once per process (here, its only builder)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|source| CliError::Threads { threads, source })?;
+    Ok(opts)
+}
+
+fn warn_low_quality(low: &[quality::PoorElements]) {
+    for line in bubblemesh_run::poor_element_warnings(low) {
+        eprintln!("{line}");
+    }
 }
 
 /// Checks the outputs of `mesh` against its inputs and each other and
@@ -703,69 +535,6 @@ fn prepare_mesh_outputs(a: &MeshArgs) -> Result<OutputSet, CliError> {
     prepare_outputs(&inputs, &outputs)
 }
 
-/// The --size expression; without one (and no other spacing source) 1/40
-/// of the model's bounding-box diagonal, said on stderr.
-fn size_text(a: &MeshArgs, model: &Model) -> Result<String, CliError> {
-    let others_given =
-        a.curvature.is_some() || a.view_spacing.is_some() || !a.plugin_specs.is_empty();
-    Ok(match &a.size {
-        Some(s) => s.clone(),
-        None if others_given => String::new(),
-        None => {
-            let diag = model.size();
-            if !(diag > 0.0) {
-                return Err(CliError::Message(format!(
-                    "{}: the model is empty or has zero size",
-                    a.input.display()
-                )));
-            }
-            let d = diag / 40.0;
-            if !a.quiet {
-                eprintln!(
-                    "no --size given: using d = {} (1/40 of the bounding-box diagonal)",
-                    significant(d, 6)
-                );
-            }
-            format!("{d}")
-        }
-    })
-}
-
-/// The engine's options of `mesh`; starts the `threads` every rayon loop
-/// (relaxation, volume polish) runs on, so that `--threads 1` is
-/// single-threaded throughout.
-fn engine_options(a: &MeshArgs, model: &Model, threads: usize) -> Result<Options, CliError> {
-    // a STEP solid meshes its boundary surfaces by default (fast, and what
-    // a surface-mesh user expects); --dim 3 fills its solids with tetrahedra
-    let is_step = a
-        .input
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("step") || e.eq_ignore_ascii_case("stp"));
-    let mut opts = Options {
-        dim: a.dim.or((is_step && model.dim() == 3).then_some(2)),
-        fast: a.fast,
-        volume_lattice: if a.fcc {
-            VolumeLattice::Fcc
-        } else {
-            VolumeLattice::Auto
-        },
-        ..Default::default()
-    };
-    opts.relax.integrator = match a.integrator {
-        IntegratorArg::Euler => Integrator::Euler,
-        IntegratorArg::Rk4 => Integrator::Rk4,
-    };
-    opts.relax.max_steps = a.max_steps.max(1);
-    opts.relax.parallel = threads > 1;
-    // the global pool is built once per process (here, its only builder)
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build_global()
-        .map_err(|source| CliError::Threads { threads, source })?;
-    Ok(opts)
-}
-
 /// Meshes `model` in one run observed by the progress bar and, with
 /// `--frames` or `--animate`, by the recorder of the bubbles settling
 /// (returned with the mesh).
@@ -775,26 +544,15 @@ fn mesh_observed(
     spacing: &dyn Spacing,
     mut opts: Options,
 ) -> Result<(Mesh, Report, Option<frames::Recorder>), CliError> {
-    let bar = progress_bar(a.quiet, model);
+    let bar = bubblemesh_run::progress_bar(a.quiet, model);
     let recorder = (a.frames.is_some() || a.animate.is_some())
         .then(|| Arc::new(std::sync::Mutex::new(frames::Recorder::default())));
     if bar.is_some() || recorder.is_some() {
         let b = bar.clone();
         let r = recorder.clone();
         opts.observer = Some(Arc::new(move |e: &Event<'_>| {
-            if let (
-                Some(b),
-                &Event::Step {
-                    entity,
-                    step,
-                    max_steps,
-                    ..
-                },
-            ) = (&b, e)
-            {
-                b.set_length(max_steps as u64);
-                b.set_position(step as u64);
-                b.set_message(format!("stage 2 on {entity}"));
+            if let Some(b) = &b {
+                bubblemesh_run::show_step(b, e);
             }
             if let Some(r) = &r {
                 r.lock().unwrap_or_else(|p| p.into_inner()).observe(e);
@@ -913,37 +671,6 @@ fn stage_frames(
     Ok(said)
 }
 
-/// Faces the engine meshed finer than asked (`engine::refine`): the mesh
-/// departs from the requested spacing there, so the user is told.
-fn warn_refined(model: &Model, report: &Report) {
-    for r in &report.refined {
-        let face = model.describe(bubblemesh_core::EntityRef::new(2, r.face));
-        let reason: String = r.reason.chars().take(200).collect();
-        eprintln!(
-            "warning: {face}: meshed with {} of the requested spacing, which could not give it a valid mesh ({reason})",
-            r.spacing_factor
-        );
-    }
-    if let Some(r) = report.refined_places.first() {
-        let finest = report
-            .refined_places
-            .iter()
-            .map(|p| p.spacing_factor)
-            .fold(1.0, f64::min);
-        let reason: String = r.reason.chars().take(200).collect();
-        eprintln!(
-            "warning: {} place(s) meshed finer than asked, down to {finest} of the requested spacing, \
-             the first within {:.6} of ({:.6}, {:.6}, {:.6}): the tetrahedralization could not \
-             recover the surface mesh there ({reason})",
-            report.refined_places.len(),
-            r.radius,
-            r.centre[0],
-            r.centre[1],
-            r.centre[2]
-        );
-    }
-}
-
 /// `bubblemesh draw`.
 fn run_draw(a: DrawArgs) -> Result<(), CliError> {
     let kind = match Kind::from_path(&a.output) {
@@ -974,7 +701,7 @@ fn run_draw(a: DrawArgs) -> Result<(), CliError> {
         &mesh,
         &a.output,
         Some(kind),
-        &a.picture,
+        &a.picture.settings(),
         &Drawing {
             title: &title,
             spacing: spacing.as_ref().map(|s| s as &dyn Spacing),
@@ -994,113 +721,6 @@ fn run_draw(a: DrawArgs) -> Result<(), CliError> {
         )?;
     }
     out.commit().map_err(CliError::Write)
-}
-
-/// Whether OUTPUT is a picture (`Some`) or a mesh file (`None`); an
-/// extension that is neither is an error before any work is done.
-fn output_kind(path: &Path) -> Result<Option<Kind>, CliError> {
-    if let Some(k) = Kind::from_path(path) {
-        return Ok(Some(k));
-    }
-    bubblemesh_io::Format::from_path(path)
-        .map(|_| None)
-        .map_err(CliError::OutputKind)
-}
-
-/// What a picture shows besides the mesh.
-struct Drawing<'a> {
-    title: &'a str,
-    spacing: Option<&'a dyn Spacing>,
-    quality: &'a QualityReport,
-    notes: Vec<String>,
-}
-
-fn picture_options(
-    mesh: &Mesh,
-    pic: &PictureArgs,
-    spacing: Option<&dyn Spacing>,
-    title: &str,
-) -> PictureOptions {
-    PictureOptions {
-        color: color_by(pic.color),
-        view: pic.view,
-        bubbles: pic.bubbles.then(|| match spacing {
-            Some(s) => node_spacing(mesh, s),
-            None => node_spacing_from_edges(mesh),
-        }),
-        width: pic.width,
-        title: Some(title.to_string()),
-        ..Default::default()
-    }
-}
-
-fn color_by(c: ColorArg) -> ColorBy {
-    match c {
-        ColorArg::Quality => ColorBy::Quality,
-        ColorArg::Entity => ColorBy::Entity,
-    }
-}
-
-/// Stages the mesh as `path` in `out`: a mesh file through
-/// `bubblemesh_io`, or a picture or viewer page through `bubblemesh_viz`.
-fn stage_output(
-    out: &mut OutputSet,
-    mesh: &Mesh,
-    path: &Path,
-    kind: Option<Kind>,
-    pic: &PictureArgs,
-    d: &Drawing,
-) -> Result<(), CliError> {
-    let Some(kind) = kind else {
-        let format = bubblemesh_io::Format::from_path(path)?;
-        if matches!(
-            format,
-            bubblemesh_io::Format::Stl | bubblemesh_io::Format::Obj
-        ) && bubblemesh_io::surface_triangles(mesh).is_empty()
-        {
-            return Err(CliError::Message(format!(
-                "{}: the mesh has no triangles ({} nodes, {} edge elements): .{} holds \
-                 triangles only; use .msh, .vtu or .mesh for edges",
-                path.display(),
-                mesh.nodes.len(),
-                mesh.lines.len(),
-                format.extension()
-            )));
-        }
-        return Ok(bubblemesh_io::stage_as(out, mesh, path, format)?);
-    };
-    let fail = |source| CliError::Picture {
-        path: path.to_path_buf(),
-        source,
-    };
-    let bytes = match kind {
-        Kind::Svg => bubblemesh_viz::svg(mesh, &picture_options(mesh, pic, d.spacing, d.title))
-            .map_err(fail)?
-            .into_bytes(),
-        Kind::Png => bubblemesh_viz::png(mesh, &picture_options(mesh, pic, d.spacing, d.title))
-            .map_err(fail)?,
-        Kind::Html => {
-            let m = Measures::of(mesh, d.spacing.map(|s| s as &dyn Spacing));
-            let figures = bubblemesh_viz::plots::quality_histograms(&m)
-                .into_iter()
-                .map(|(stem, svg)| (stem.replace('_', " "), svg))
-                .collect();
-            bubblemesh_viz::viewer(
-                mesh,
-                &ViewerOptions {
-                    title: d.title.to_string(),
-                    color: color_by(pic.color),
-                    view: pic.view,
-                    quality: Some(d.quality),
-                    figures,
-                    notes: d.notes.clone(),
-                },
-            )
-            .map_err(fail)?
-            .into_bytes()
-        }
-    };
-    stage_bytes(out, path, &bytes)
 }
 
 /// Stages the energy history (with a report) and the histograms as SVG
@@ -1156,7 +776,7 @@ fn frame_options(
     pic: &PictureArgs,
     f: &frames::SettleFrame,
 ) -> PictureOptions {
-    let mut o = picture_options(&f.mesh, pic, Some(spacing), &f.label);
+    let mut o = bubblemesh_run::picture_options(&f.mesh, &pic.settings(), Some(spacing), &f.label);
     o.bubbles = Some(f.bubbles.clone());
     o.fit = model.bbox();
     o.caption = Some(f.label.clone());
@@ -1249,49 +869,4 @@ fn prepare_outputs(inputs: &[&Path], outputs: &[OutputPath]) -> Result<OutputSet
         out.dir(o.path).map_err(CliError::MakeDir)?;
     }
     Ok(out)
-}
-
-/// Stages a file of this run (written at commit).
-fn stage_bytes(out: &mut OutputSet, path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    out.bytes(path, bytes).map_err(CliError::Write)
-}
-
-fn warn_low_quality(low: &[quality::PoorElements]) {
-    for p in low {
-        let kind = if p.dim == 3 { "volume" } else { "face" };
-        let name = p
-            .name
-            .as_ref()
-            .map(|n| format!(" '{n}'"))
-            .unwrap_or_default();
-        eprintln!(
-            "warning: {kind} {}{name}: {} element(s) of radius ratio below {} (worst {:.2e} near ({}, {}, {}), \
-             {} thick there); the geometry is thinner there than the spacing resolves",
-            p.id,
-            p.count,
-            quality::POOR_Q,
-            p.worst_q,
-            significant(p.at[0], 6),
-            significant(p.at[1], 6),
-            significant(p.at[2], 6),
-            significant(p.thickness, 3),
-        );
-    }
-}
-
-/// A progress bar on stderr for interactive runs of non-trivial models.
-fn progress_bar(quiet: bool, model: &Model) -> Option<indicatif::ProgressBar> {
-    use std::io::IsTerminal;
-    if quiet || !std::io::stderr().is_terminal() || model.faces.is_empty() {
-        return None;
-    }
-    let b = indicatif::ProgressBar::new(1);
-    b.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} {msg} [{bar:30}] step {pos}/{len} ({elapsed})",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    b.enable_steady_tick(std::time::Duration::from_millis(200));
-    Some(b)
 }

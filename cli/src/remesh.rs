@@ -12,7 +12,7 @@ use std::sync::Arc;
 use bubblemesh_core::remesh::{self, summary, Matching, Region, State, WarmStart};
 use bubblemesh_core::{Mesh, Model, Options, Report, Spacing};
 
-use crate::error::CliError;
+use crate::CliError;
 
 /// What `remesh` adds to `mesh`'s arguments.
 #[derive(Clone, Debug)]

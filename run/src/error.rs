@@ -1,15 +1,16 @@
-//! The command line's error: what failed, worded for the user. The text
-//! of each variant is the message printed after `error: ` (the tests read
-//! it), so a variant wraps a library error without adding to its words
-//! unless the command line always said more.
+//! The error of a run: what failed, worded for the user. The text of each
+//! variant is the message the command line prints after `error: ` (its
+//! tests read it) and the Python package raises, so a variant wraps a
+//! library error without adding to its words unless the command line
+//! always said more.
 
 use std::path::PathBuf;
 
 use bubblemesh_core::MeshError;
 
-/// A failure of a command (exit status 1).
+/// A failure of a run (the command line's exit status 1).
 #[derive(Debug, thiserror::Error)]
-pub(crate) enum CliError {
+pub enum Error {
     /// A check of the command line or its inputs, already worded.
     #[error("{0}")]
     Message(String),
@@ -69,8 +70,8 @@ pub(crate) enum CliError {
     },
 }
 
-impl From<String> for CliError {
+impl From<String> for Error {
     fn from(message: String) -> Self {
-        CliError::Message(message)
+        Error::Message(message)
     }
 }
