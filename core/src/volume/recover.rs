@@ -179,21 +179,10 @@ mod tests {
     use crate::mesh::{Element, Node};
     use crate::model::EntityRef;
 
-    fn node(x: f64, y: f64, z: f64) -> Node {
-        Node {
-            pos: P3::new(x, y, z),
-            entity: EntityRef::new(2, 0),
-            params: [0.0, 0.0],
-        }
-    }
-
-    /// A square pyramid's base split along the diagonal the Delaunay
-    /// tetrahedralization does not use: the base's four corners are
-    /// co-circular, so either diagonal is Delaunay in the plane, and the
-    /// 3D tetrahedralization (two tetrahedra) picks one. The pass turns the
-    /// base to it, keeps its orientation, and leaves the sides alone.
-    #[test]
-    fn cocircular_base_turns_to_the_delaunay_diagonal() {
+    /// A square pyramid's corners (base co-circular at z = 0, apex above)
+    /// and the faces of their Delaunay tetrahedralization, which splits the
+    /// base along one diagonal.
+    fn pyramid() -> (Mesh, HashSet<[u32; 3]>) {
         let mut mesh = Mesh::default();
         for p in [
             [0.0, 0.0, 0.0],
@@ -202,23 +191,40 @@ mod tests {
             [0.0, 1.0, 0.0],
             [0.5, 0.5, 0.8],
         ] {
-            mesh.nodes.push(node(p[0], p[1], p[2]));
+            mesh.nodes.push(Node {
+                pos: P3::new(p[0], p[1], p[2]),
+                entity: EntityRef::new(2, 0),
+                params: [0.0, 0.0],
+            });
         }
-        let tri = |n: [u32; 3], f: u32| Element {
-            nodes: n,
-            entity: EntityRef::new(2, f),
-        };
         let coords: Vec<[f64; 3]> = mesh
             .nodes
             .iter()
             .map(|n| [n.pos.x, n.pos.y, n.pos.z])
             .collect();
         let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
-        let faces: HashSet<[u32; 3]> = dt
+        let faces = dt
             .tets
             .iter()
             .flat_map(|t| TET_FACES.iter().map(move |f| sorted3(f.map(|i| t[i]))))
             .collect();
+        (mesh, faces)
+    }
+
+    fn tri(nodes: [u32; 3], face: u32) -> Element<3> {
+        Element {
+            nodes,
+            entity: EntityRef::new(2, face),
+        }
+    }
+
+    /// The base split along the diagonal the Delaunay tetrahedralization
+    /// does not use (its four corners are co-circular, so either diagonal
+    /// is Delaunay in the plane): the pass turns it, keeps it outward and
+    /// leaves the sides alone.
+    #[test]
+    fn cocircular_base_turns_to_the_delaunay_diagonal() {
+        let (mut mesh, faces) = pyramid();
         // the base (outward: normal −z) along the diagonal Delaunay did
         // not take
         let (base, other) = if faces.contains(&[0, 1, 2]) {
@@ -254,37 +260,14 @@ mod tests {
     /// turned.
     #[test]
     fn a_mesh_line_is_never_turned() {
-        let mut mesh = Mesh::default();
-        for p in [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.5, 0.5, 0.8],
-        ] {
-            mesh.nodes.push(node(p[0], p[1], p[2]));
-        }
-        let coords: Vec<[f64; 3]> = mesh
-            .nodes
-            .iter()
-            .map(|n| [n.pos.x, n.pos.y, n.pos.z])
-            .collect();
-        let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
-        let has012 = dt.tets.iter().any(|t| {
-            TET_FACES
-                .iter()
-                .any(|f| sorted3(f.map(|i| t[i])) == [0, 1, 2])
-        });
-        let (base, diag) = if has012 {
+        let (mut mesh, faces) = pyramid();
+        let (base, diag) = if faces.contains(&[0, 1, 2]) {
             ([[0, 3, 1], [1, 3, 2]], [1, 3])
         } else {
             ([[0, 2, 1], [0, 3, 2]], [0, 2])
         };
         for t in base {
-            mesh.triangles.push(Element {
-                nodes: t,
-                entity: EntityRef::new(2, 0),
-            });
+            mesh.triangles.push(tri(t, 0));
         }
         mesh.lines.push(Element {
             nodes: diag,
