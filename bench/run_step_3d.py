@@ -6,6 +6,7 @@ independent meshcheck.py (`--dim 3 --ref-volume` the manifest's CAD volume)
 and write bench/out/step3d/results.json and RESULTS_step3d.md.
 
     python3 bench/run_step_3d.py [--parts a,b] [--skip gmsh] [--timeout 900] [--mem-mb 6000]
+                                 [--divisor 20]
 
 Issue 5's target for the fixtures: every mesh valid (conforming, watertight,
 no inverted or zero-volume tetrahedron) with its volume within 0.5 % of the
@@ -13,7 +14,10 @@ CAD volume. Both meshers run single-threaded under `prlimit --as`
 (--mem-mb) and the timeout; times are wall seconds of the whole process
 (reading the STEP file, meshing, writing).
 
-Sizes: each part's manifest `mesh_size`. b3d_bottle's walls are one unit
+Sizes: each part's manifest `mesh_size`, or with `--divisor N` the
+diagonal of its manifest bounding box over N (the sizes engineers ask for:
+N = 20 for tetrahedra). Results of a `--divisor` run go to
+bench/out/step3d_divN/. b3d_bottle's walls are one unit
 thick at size 1: no free bubble fits inside them (see
 core/src/volume/tet/sliver.rs, `steiner_points`).
 """
@@ -96,7 +100,12 @@ def main():
     ap.add_argument("--skip", default="")
     ap.add_argument("--timeout", type=float, default=900)
     ap.add_argument("--mem-mb", type=int, default=6000)
+    ap.add_argument("--divisor", type=float, default=0.0,
+                    help="size = bounding-box diagonal / N instead of the manifest's mesh_size")
     a = ap.parse_args()
+    global OUT
+    if a.divisor > 0:
+        OUT = os.path.join(run_step.ROOT, "bench", "out", f"step3d_div{a.divisor:g}")
     man = json.load(open(os.path.join(run_step.ROOT, "fixtures", "manifest.json")))
     os.makedirs(OUT, exist_ok=True)
     res_path = os.path.join(OUT, "results.json")
@@ -109,6 +118,10 @@ def main():
             continue
         step = os.path.join(run_step.ROOT, "fixtures", part["file"])
         size = part["mesh_size"]
+        if a.divisor > 0:
+            lo, hi = part["bbox"]["min"], part["bbox"]["max"]
+            diag = sum((h - l) ** 2 for l, h in zip(lo, hi)) ** 0.5
+            size = float(f"{diag / a.divisor:.6g}")
         for name, fn in meshers.items():
             if name in skip:
                 continue
