@@ -154,13 +154,16 @@ struct Failed {
 
 impl From<MeshError> for Box<Failed> {
     fn from(error: MeshError) -> Self {
-        /// The faces and edges whose refinement may cure `e`.
-        fn culprits(e: &MeshError) -> (Vec<u32>, Vec<u32>) {
+        /// The faces, edges and places whose refinement may cure `e`
+        /// (places replace faces where the error names them).
+        type Culprits = (Vec<u32>, Vec<u32>, Vec<(crate::geom::P3, f64)>);
+        fn culprits(e: &MeshError) -> Culprits {
             match e {
                 MeshError::In { source, .. } => culprits(source),
                 MeshError::Refinable { faces, spots, .. } if spots.is_empty() => {
-                    (faces.clone(), vec![])
+                    (faces.clone(), vec![], vec![])
                 }
+                MeshError::Refinable { spots, .. } => (vec![], vec![], spots.clone()),
                 MeshError::Check(c) if c.refinable => {
                     let mut f = Vec::new();
                     let mut e = Vec::new();
@@ -171,20 +174,12 @@ impl From<MeshError> for Box<Failed> {
                             _ => {}
                         }
                     }
-                    (f, e)
+                    (f, e, vec![])
                 }
-                _ => (vec![], vec![]),
+                _ => (vec![], vec![], vec![]),
             }
         }
-        fn spots_of(e: &MeshError) -> Vec<(crate::geom::P3, f64)> {
-            match e {
-                MeshError::In { source, .. } => spots_of(source),
-                MeshError::Refinable { spots, .. } => spots.clone(),
-                _ => vec![],
-            }
-        }
-        let (faces, edges) = culprits(&error);
-        let spots = spots_of(&error);
+        let (faces, edges, spots) = culprits(&error);
         Box::new(Failed {
             error,
             faces,

@@ -32,7 +32,7 @@ use std::time::Instant;
 
 use crate::bubbles::constraint::{self, Carrier};
 use crate::bubbles::system::{self, RelaxStats, System};
-use crate::error::{check_spacing, MeshError};
+use crate::error::MeshError;
 use crate::geom::{P3, V3};
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -512,14 +512,7 @@ impl<'a> FaceJob<'a> {
             // parameter length of one spacing along u (1 on a plane)
             d / dv.su.norm().max(f64::MIN_POSITIVE)
         });
-        let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
-            let d = spacing.spacing(&SpacingQuery {
-                point: *p,
-                entity: fe,
-                params: uv,
-            });
-            check_spacing(d, *p, fe)
-        };
+        let mut d_at = placement::spacing_on(spacing, fe);
         let mut d_outside = boundary
             .ids
             .iter()

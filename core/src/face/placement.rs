@@ -9,7 +9,9 @@ use crate::geom::P3;
 
 use crate::bubbles::constraint::Carrier;
 pub(crate) use crate::bubbles::MAX_BUBBLES_PER_ENTITY;
-use crate::error::MeshError;
+use crate::error::{check_spacing, MeshError};
+use crate::model::EntityRef;
+use crate::spacing::{Spacing, SpacingQuery};
 
 /// d at a point of a face and its (u,v), checked finite and positive.
 pub type FaceSpacing<'a> = dyn FnMut(&P3, [f64; 2]) -> Result<f64, MeshError> + 'a;
@@ -342,5 +344,21 @@ mod tests {
         let e = expected(&graded, 0.2, 0.8);
         let n = seeds.iter().filter(|s| inside(s, 0.2, 0.8)).count() as f64;
         assert!((n - e).abs() < 0.25 * e, "{n} seeds, {e:.0} expected");
+    }
+}
+
+/// d(x) on face `fe` at a point and its (u,v), checked finite and positive:
+/// the spacing stage 1 asks of a face.
+pub(crate) fn spacing_on<'s>(
+    spacing: &'s dyn Spacing,
+    fe: EntityRef,
+) -> impl FnMut(&P3, [f64; 2]) -> Result<f64, MeshError> + 's {
+    move |p, uv| {
+        let d = spacing.spacing(&SpacingQuery {
+            point: *p,
+            entity: fe,
+            params: uv,
+        });
+        check_spacing(d, *p, fe)
     }
 }

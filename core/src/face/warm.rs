@@ -16,10 +16,10 @@
 use crate::bubbles::constraint::Carrier;
 use crate::bubbles::grid;
 use crate::bubbles::system::{self, System};
-use crate::error::{check_spacing, MeshError};
+use crate::error::MeshError;
 use crate::geom::{P3, V3};
 use crate::remesh::warm::EntityStart;
-use crate::spacing::{Spacing, SpacingQuery};
+use crate::spacing::Spacing;
 
 use super::carrier::OnFace;
 use super::placement::{self, uncrowded};
@@ -57,14 +57,7 @@ pub(super) fn stage1<'a>(
     start: &EntityStart,
 ) -> Result<(System<'a, OnFace<'a>>, WarmCounts, Far), MeshError> {
     let fe = carrier.entity();
-    let mut d_at = |p: &P3, uv: [f64; 2]| -> Result<f64, MeshError> {
-        let d = spacing.spacing(&SpacingQuery {
-            point: *p,
-            entity: fe,
-            params: uv,
-        });
-        check_spacing(d, *p, fe)
-    };
+    let mut d_at = placement::spacing_on(spacing, fe);
     let n_boundary = fixed.ids.len();
     let Fixed {
         pos: mut fixed_pos,
