@@ -291,6 +291,22 @@ pub(crate) fn uncrowded(
         .collect()
 }
 
+/// d(x) on face `fe` at a point and its (u,v), checked finite and positive:
+/// the spacing stage 1 asks of a face.
+pub(crate) fn spacing_on<'s>(
+    spacing: &'s dyn Spacing,
+    fe: EntityRef,
+) -> impl FnMut(&P3, [f64; 2]) -> Result<f64, MeshError> + 's {
+    move |p, uv| {
+        let d = spacing.spacing(&SpacingQuery {
+            point: *p,
+            entity: fe,
+            params: uv,
+        });
+        check_spacing(d, *p, fe)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -344,21 +360,5 @@ mod tests {
         let e = expected(&graded, 0.2, 0.8);
         let n = seeds.iter().filter(|s| inside(s, 0.2, 0.8)).count() as f64;
         assert!((n - e).abs() < 0.25 * e, "{n} seeds, {e:.0} expected");
-    }
-}
-
-/// d(x) on face `fe` at a point and its (u,v), checked finite and positive:
-/// the spacing stage 1 asks of a face.
-pub(crate) fn spacing_on<'s>(
-    spacing: &'s dyn Spacing,
-    fe: EntityRef,
-) -> impl FnMut(&P3, [f64; 2]) -> Result<f64, MeshError> + 's {
-    move |p, uv| {
-        let d = spacing.spacing(&SpacingQuery {
-            point: *p,
-            entity: fe,
-            params: uv,
-        });
-        check_spacing(d, *p, fe)
     }
 }
