@@ -29,9 +29,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared")
 REALSTEP = os.path.join(SHARED, "realstep")
 MESHCHECK = os.path.join(SHARED, "meshkit", "meshcheck.py")
-OUT = os.path.join(ROOT, "bench", "out", "realstep")
+OUT = os.path.join(os.environ.get("BUBBLEMESH_BENCH_OUT", os.path.join(ROOT, "bench", "out")), "realstep")
 TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
-BM = os.path.join(TARGET, "release", "bubblemesh")
+# BUBBLEMESH_BIN: another build to measure (a copy, so that cargo may go on)
+BM = os.environ.get("BUBBLEMESH_BIN", os.path.join(TARGET, "release", "bubblemesh"))
 DIVISOR = {"surf": 25.0, "tet": 20.0}
 DIM = {"surf": 2, "tet": 3}
 

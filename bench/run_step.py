@@ -37,7 +37,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OUT = os.path.join(ROOT, "bench", "out", "step")
 MESHCHECK = "/work/shared/meshkit/meshcheck.py"
 TARGET = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
-BM = os.path.join(TARGET, "release", "bubblemesh")
+# BUBBLEMESH_BIN: another build to measure (a copy, so that cargo may go on)
+BM = os.environ.get("BUBBLEMESH_BIN", os.path.join(TARGET, "release", "bubblemesh"))
 TRUCK = os.path.join(TARGET, "release", "examples", "meshalgo")
 TRUCK_MEM_MB = 3000
 

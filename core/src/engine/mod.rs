@@ -451,7 +451,8 @@ impl Attempt<'_> {
                 volume_spacing,
                 opts,
                 &mut self.mesh,
-                &self.node_d,
+                self.spacing,
+                &mut self.node_d,
                 &mut self.report.timings,
             )
             .map_err(|x| x.within(model.describe(e)))?;

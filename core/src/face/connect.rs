@@ -307,6 +307,113 @@ pub fn triangulate_surface(
     Ok(tris)
 }
 
+/// The least cosine between a point's surface normal and the face's mean
+/// normal for [`triangulate_projected`]: below it the projection onto one
+/// plane squeezes the face too much to be trusted (the final checks would
+/// catch a fold, but a near-edge-on projection gives needle triangles).
+const PROJECT_MIN_COS: f64 = 0.2;
+
+/// Triangulation of a whole curved face in one plane: the plane through
+/// the points perpendicular to their mean normal. The fallback of a face
+/// whose (u,v) triangulation cannot be made valid at this spacing — a half
+/// cone with its apex on the boundary, a fillet or a small sphere sampled
+/// by a handful of nodes, a face whose chords cross in (u,v) — where the
+/// face is a graph over one plane (every normal within about 78° of the
+/// mean). The triangles are the constrained Delaunay triangulation of the
+/// projected points, so they join the face's nodes and only those.
+///
+/// Refused (an error) unless: every usable normal is within
+/// [`PROJECT_MIN_COS`] of the mean, every boundary segment is an edge of
+/// exactly one triangle, and every triangle is non-degenerate in model
+/// space and faces the way of the surface normals at its corners (no
+/// fold). Points with no finite normal (an apex) are projected but not
+/// judged. Triangles come out oriented along the normal.
+pub fn triangulate_projected(
+    pts: &SurfacePoints<'_>,
+    segments: &[[usize; 2]],
+    boundary: &[[usize; 2]],
+) -> Result<Vec<[usize; 3]>, ConnectError> {
+    use crate::geom::V3;
+    let n = pts.pos.len();
+    let usable = |v: &V3| v.iter().all(|x| x.is_finite()) && v.norm() > 0.5;
+    let mean = pts
+        .normal
+        .iter()
+        .filter(|v| usable(v))
+        .fold(V3::zeros(), |a, v| a + v.normalize());
+    if !(mean.norm() > 0.0) {
+        return Err(ConnectError::Coarse("no usable surface normal".into()));
+    }
+    let nrm = mean.normalize();
+    if let Some(i) = (0..n)
+        .find(|&i| usable(&pts.normal[i]) && pts.normal[i].normalize().dot(&nrm) < PROJECT_MIN_COS)
+    {
+        let p = pts.pos[i];
+        return Err(ConnectError::Coarse(format!(
+            "the face is no graph over one plane (its normal turns away near ({}, {}, {}))",
+            p.x, p.y, p.z
+        )));
+    }
+    let e1 = if nrm.x.abs() < 0.9 { V3::x() } else { V3::y() };
+    let e1 = (e1 - nrm * nrm.dot(&e1)).normalize();
+    let e2 = nrm.cross(&e1);
+    // relative to the centroid, so that parts far from the origin keep
+    // their digits
+    let o = pts.pos.iter().fold(V3::zeros(), |a, p| a + p.coords) / n.max(1) as f64;
+    let puv: Vec<[f64; 2]> = pts
+        .pos
+        .iter()
+        .map(|p| {
+            let d = p.coords - o;
+            [d.dot(&e1), d.dot(&e2)]
+        })
+        .collect();
+    // counter-clockwise in the plane, so facing `nrm`: (u,v) counter-
+    // clockwise is counter-clockwise about S_u × S_v, and every normal has
+    // a positive component along `nrm`, so `boundary` keeps the face on its
+    // left
+    let tris = triangulate(&puv, segments, boundary, |_| false)?;
+    let mut uses: HashMap<(usize, usize), u32> = HashMap::new();
+    for t in &tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    if let Some(s) = boundary
+        .iter()
+        .find(|s| uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
+    {
+        let p = pts.pos[s[0]];
+        return Err(ConnectError::Coarse(format!(
+            "its projection onto one plane does not close at ({}, {}, {})",
+            p.x, p.y, p.z
+        )));
+    }
+    for t in &tris {
+        let (a, b, c) = (pts.pos[t[0]], pts.pos[t[1]], pts.pos[t[2]]);
+        let cr = (b - a).cross(&(c - a));
+        let l2 = (b - a)
+            .norm_squared()
+            .max((c - a).norm_squared())
+            .max((c - b).norm_squared());
+        let along = t
+            .iter()
+            .map(|&i| pts.normal[i])
+            .filter(usable)
+            .fold(V3::zeros(), |s, v| s + v.normalize());
+        let along = if along.norm() > 0.0 { along } else { nrm };
+        if !(cr.norm() > 1e-12 * l2) || cr.dot(&along) <= 0.0 {
+            let p = (a.coords + b.coords + c.coords) / 3.0;
+            return Err(ConnectError::Coarse(format!(
+                "its projection onto one plane folds near ({}, {}, {})",
+                p.x, p.y, p.z
+            )));
+        }
+    }
+    Ok(tris)
+}
+
 /// Turns every triangle to be counter-clockwise about the surface normal.
 fn orient_along_normal(pts: &SurfacePoints<'_>, tris: &mut [[usize; 3]]) {
     for t in tris.iter_mut() {
@@ -614,6 +721,120 @@ mod tests {
                 .count();
             assert_eq!(uses, 1, "segment {s:?}");
         }
+    }
+
+    /// A half cone of semi-angle 59° with its apex on the boundary (as
+    /// face #6366 of `as_0083` in `../shared/realstep`, meshed at a spacing
+    /// larger than the face): points on rings s = ½ and s = 1, the apex a
+    /// boundary vertex with no usable normal. (u, v) = (θ, s).
+    fn half_cone() -> (
+        Vec<[f64; 2]>,
+        Vec<crate::geom::P3>,
+        Vec<crate::geom::V3>,
+        Vec<[usize; 2]>,
+    ) {
+        use crate::geom::{P3, V3};
+        let a = 59f64.to_radians();
+        let point =
+            |th: f64, s: f64| P3::new(s * a.sin() * th.cos(), s * a.sin() * th.sin(), s * a.cos());
+        let normal = |th: f64, s: f64| -> V3 {
+            let su = V3::new(-th.sin(), th.cos(), 0.0) * (s * a.sin());
+            let sv = V3::new(a.sin() * th.cos(), a.sin() * th.sin(), a.cos());
+            let n = su.cross(&sv);
+            if n.norm() > 0.0 {
+                n.normalize()
+            } else {
+                V3::zeros()
+            }
+        };
+        let pi = std::f64::consts::PI;
+        // counter-clockwise in (θ, s): apex, up the side θ = π, back along
+        // the rim s = 1, down the side θ = 0
+        let mut uv = vec![[0.5 * pi, 0.0], [pi, 0.5]];
+        for k in 0..=6 {
+            uv.push([pi * (1.0 - k as f64 / 6.0), 1.0]);
+        }
+        uv.push([0.0, 0.5]);
+        let nb = uv.len();
+        let directed: Vec<[usize; 2]> = (0..nb).map(|k| [k, (k + 1) % nb]).collect();
+        // free bubbles inside
+        for k in 1..4 {
+            uv.push([pi * k as f64 / 4.0, 0.6]);
+        }
+        let pos = uv.iter().map(|q| point(q[0], q[1])).collect();
+        let nrm = uv.iter().map(|q| normal(q[0], q[1])).collect();
+        (uv, pos, nrm, directed)
+    }
+
+    #[test]
+    fn half_cone_with_its_apex_on_the_boundary_connects_in_one_plane() {
+        let (uv, pos, normal, directed) = half_cone();
+        let n = uv.len();
+        let (d, singular) = (vec![2.0; n], vec![false; n]);
+        let pts = SurfacePoints {
+            uv: &uv,
+            pos: &pos,
+            normal: &normal,
+            d: &d,
+            singular: &singular,
+            periods: [None, None],
+            origin: [0.0, 0.0],
+            scale: [1.0, 1.0],
+        };
+        let tris = triangulate_projected(&pts, &directed, &directed).unwrap();
+        // Euler: a disc with n points, nb on its boundary has 2n − nb − 2
+        // triangles, and every point is used
+        assert_eq!(tris.len(), 2 * n - directed.len() - 2);
+        let mut used = vec![false; n];
+        for t in &tris {
+            for &v in t {
+                used[v] = true;
+            }
+            // faces the surface's normal (outward of the cone's axis)
+            let (a, b, c) = (pos[t[0]], pos[t[1]], pos[t[2]]);
+            let nrm = (b - a).cross(&(c - a));
+            let along: crate::geom::V3 = t.iter().map(|&i| normal[i]).sum();
+            assert!(nrm.dot(&along) > 0.0, "triangle {t:?} folds");
+        }
+        assert!(used.iter().all(|&u| u));
+        for s in &directed {
+            let uses = tris
+                .iter()
+                .filter(|t| (0..3).any(|k| [t[k], t[(k + 1) % 3]] == *s))
+                .count();
+            assert_eq!(uses, 1, "boundary segment {s:?} once and in its direction");
+        }
+    }
+
+    #[test]
+    fn a_face_that_is_no_graph_over_one_plane_is_not_projected() {
+        use crate::geom::{P3, V3};
+        // a hemisphere's rim and pole: normals from vertical to horizontal
+        let tau = std::f64::consts::TAU;
+        let mut uv = Vec::new();
+        for k in 0..8 {
+            uv.push([tau * k as f64 / 8.0, 0.0]);
+        }
+        uv.push([0.0, 0.5 * std::f64::consts::PI]);
+        let pos: Vec<P3> = uv
+            .iter()
+            .map(|q| P3::new(q[1].cos() * q[0].cos(), q[1].cos() * q[0].sin(), q[1].sin()))
+            .collect();
+        let normal: Vec<V3> = pos.iter().map(|p| p.coords).collect();
+        let directed: Vec<[usize; 2]> = (0..8).map(|k| [k, (k + 1) % 8]).collect();
+        let (d, singular) = (vec![1.0; 9], vec![false; 9]);
+        let pts = SurfacePoints {
+            uv: &uv,
+            pos: &pos,
+            normal: &normal,
+            d: &d,
+            singular: &singular,
+            periods: [Some(tau), None],
+            origin: [0.0, -1.0],
+            scale: [1.0, 1.0],
+        };
+        let e = triangulate_projected(&pts, &directed, &directed).unwrap_err();
+        assert!(e.to_string().contains("no graph over one plane"), "{e}");
     }
 
     /// Co-circular points (a regular octagon plus centre) are the classic

@@ -105,6 +105,11 @@ pub struct FaceReport {
     /// over as stage 1, quadtree seeds added where they left room.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warm: Option<[usize; 3]>,
+    /// Why the face was connected in one plane (its mean tangent plane,
+    /// [`connect::triangulate_projected`]) instead of its (u,v): the
+    /// error of the (u,v) connection at this spacing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub connected_in_plane: Option<String>,
 }
 
 /// The parameter box `(lo, hi)` of a surface (its `domain()` is
@@ -247,7 +252,8 @@ pub(crate) fn mesh_face(
     }
 
     let t3 = Instant::now();
-    let mut tris = job.connect(&sys, &boundary)?;
+    let (mut tris, in_plane) = job.connect(&sys, &boundary)?;
+    fr.connected_in_plane = in_plane;
     if !inputs.opts.fast && PRM.improve_rounds > 0 {
         improve::improve(&mut sys, &mut tris, &boundary.segments, PRM.improve_rounds)?;
     }
@@ -649,19 +655,24 @@ impl<'a> FaceJob<'a> {
 
     /// Connection (§4.8): constrained Delaunay triangulation in (u,v) on a
     /// plane; on a curved surface in (u,v) scaled to the surface, and in the
-    /// tangent plane near a singular point (a cap).
+    /// tangent plane near a singular point (a cap). Where that fails on a
+    /// curved face, the whole face in its mean tangent plane if it is a
+    /// graph over it; then the second value is why (u,v) failed.
     fn connect(
         &self,
         sys: &System<'a, OnFace<'a>>,
         boundary: &Boundary,
-    ) -> Result<Vec<[usize; 3]>, MeshError> {
+    ) -> Result<(Vec<[usize; 3]>, Option<String>), MeshError> {
         let surface = self.surface;
         let (segments, directed) = (&boundary.segments, &boundary.directed);
         let keep = |c: [f64; 2]| {
             sys.carrier.region.contains(c[0], c[1]) && surface.trim(c[0], c[1]).unwrap_or(true)
         };
         if surface.is_planar() {
-            return Ok(connect::triangulate(&sys.params, segments, directed, keep)?);
+            return Ok((
+                connect::triangulate(&sys.params, segments, directed, keep)?,
+                None,
+            ));
         }
         let normal: Vec<V3> = sys
             .params
@@ -695,7 +706,20 @@ impl<'a> FaceJob<'a> {
             origin: domain_box(surface).0,
             scale: parameter_scale(surface, &sys.params),
         };
-        Ok(connect::triangulate_surface(&pts, segments, directed)?)
+        match connect::triangulate_surface(&pts, segments, directed) {
+            Ok(tris) => Ok((tris, None)),
+            // the face as a graph over one plane, where it is one: valid
+            // at any spacing, and checked like the rest
+            Err(
+                first @ (connect::ConnectError::Coarse(_)
+                | connect::ConnectError::Crossing(..)
+                | connect::ConnectError::Duplicate(..)),
+            ) => match connect::triangulate_projected(&pts, segments, directed) {
+                Ok(tris) => Ok((tris, Some(first.to_string()))),
+                Err(_) => Err(first.into()),
+            },
+            Err(e) => Err(e.into()),
+        }
     }
 
     /// Whether the face is rebuilt from the lattice conformal to its spacing

@@ -173,6 +173,9 @@ pub fn connect_volume(
             let before = removed;
             remove_blockers(pts, n_fixed, boundary, &missing, &mut kept, &mut removed);
             if removed == before {
+                remove_sphere_blockers(pts, n_fixed, boundary, &missing, &mut kept, &mut removed);
+            }
+            if removed == before {
                 return Err(not_conforming(pts, boundary, &missing));
             }
             continue;
@@ -240,6 +243,65 @@ fn remove_blockers(
             }
         });
         if hit {
+            kept[i] = false;
+            *removed += 1;
+        }
+    }
+}
+
+/// Removes, for each missing boundary triangle that is a face of the
+/// Delaunay tetrahedralization of the boundary points alone, the free
+/// points inside the circumsphere of one of its tetrahedra there (the one
+/// holding fewer free points). That sphere is empty of boundary points,
+/// so once it is empty of free points too its tetrahedron, and with it
+/// the triangle, is Delaunay: the exact cure where the triangle's
+/// diametral ball holds boundary points and so is no witness (a boundary
+/// split to Delaunay by [`super::split`] needs it). Triangles that are no
+/// such face are left (nothing free blocks them).
+fn remove_sphere_blockers(
+    pts: &[P3],
+    n_fixed: usize,
+    boundary: &[[u32; 3]],
+    missing: &[usize],
+    kept: &mut [bool],
+    removed: &mut usize,
+) {
+    let coords: Vec<[f64; 3]> = pts[..n_fixed].iter().map(|p| [p.x, p.y, p.z]).collect();
+    let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
+        return;
+    };
+    let wanted: HashMap<[u32; 3], usize> =
+        missing.iter().map(|&k| (sorted3(boundary[k]), k)).collect();
+    let mut spheres: HashMap<usize, Vec<(P3, f64)>> = HashMap::new();
+    for t in &dt.tets {
+        for f in &FACE {
+            if let Some(&k) = wanted.get(&sorted3(f.map(|i| t[i]))) {
+                let [a, b, c, d] = t.map(|i| pts[i as usize]);
+                if let Some(o) = crate::measure::tet_circumcentre(&a, &b, &c, &d) {
+                    spheres.entry(k).or_default().push((o, (a - o).norm()));
+                }
+            }
+        }
+    }
+    let free: Vec<usize> = (n_fixed..pts.len()).filter(|&i| kept[i]).collect();
+    let inside = |o: &P3, r: f64| -> Vec<usize> {
+        free.iter()
+            .copied()
+            .filter(|&i| (pts[i] - o).norm() <= r * (1.0 + 1e-9))
+            .collect()
+    };
+    let mut drop: HashSet<usize> = HashSet::new();
+    let mut ks: Vec<&usize> = spheres.keys().collect();
+    ks.sort_unstable();
+    for k in ks {
+        let best = spheres[k]
+            .iter()
+            .map(|(o, r)| inside(o, *r))
+            .min_by_key(|v| v.len());
+        drop.extend(best.into_iter().flatten());
+    }
+    for i in drop {
+        if kept[i] {
             kept[i] = false;
             *removed += 1;
         }

@@ -41,6 +41,7 @@ pub use crate::options::VolumeLattice;
 pub(crate) mod connect;
 pub(crate) mod recover;
 pub(crate) mod shell;
+pub(crate) mod split;
 pub(crate) mod tet;
 
 pub use tet::SliverStats;
@@ -389,6 +390,9 @@ pub struct VolumeReport {
     /// Pairs of boundary triangles turned to the Delaunay diagonal of
     /// their quadrilateral before the connection ([`recover`]).
     pub boundary_flips: usize,
+    /// Boundary edges split on the geometry before the connection, and
+    /// where ([`split`]): there the face meshes are finer than requested.
+    pub boundary_splits: split::Splits,
     pub relax: Option<crate::bubbles::system::RelaxStats>,
 }
 
@@ -556,17 +560,10 @@ pub(super) fn mesh_volume(
     spacing: &dyn Spacing,
     opts: &crate::options::Options,
     mesh: &mut crate::mesh::Mesh,
-    node_d: &[f64],
+    node_spacing: &dyn Spacing,
+    node_d: &mut Vec<f64>,
     timings: &mut crate::options::Timings,
 ) -> Result<VolumeReport, MeshError> {
-    let job = VolumeJob {
-        model,
-        vi,
-        entity: EntityRef::new(3, vi as u32),
-        spacing,
-        opts,
-        node_d,
-    };
     let mut lattice = match (opts.volume_lattice, spacing.constant()) {
         (VolumeLattice::Auto, Some(_)) => Lattice::Bcc,
         _ => Lattice::Fcc,
@@ -576,11 +573,31 @@ pub(super) fn mesh_volume(
     // tetrahedralization will have them (see recover)
     let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
     let flips = recover::flip_to_delaunay(mesh, &faces);
+    // triangles the flips could not make Delaunay: split on the geometry
+    // (see split); the new nodes' spacing as the engine gives it
+    let splits = split::split_to_delaunay(model, mesh, vi);
+    for n in &mesh.nodes[node_d.len()..] {
+        let d = node_spacing.spacing(&crate::spacing::SpacingQuery {
+            point: n.pos,
+            entity: n.entity,
+            params: n.params,
+        });
+        node_d.push(crate::error::check_spacing(d, n.pos, n.entity)?);
+    }
+    let job = VolumeJob {
+        model,
+        vi,
+        entity: EntityRef::new(3, vi as u32),
+        spacing,
+        opts,
+        node_d: &*node_d,
+    };
     loop {
         let boundary = Boundary::of(&job, mesh)?;
         match attempt(&job, &boundary, lattice, mesh, timings)? {
             Attempt::Done(mut rep) => {
                 rep.boundary_flips = flips;
+                rep.boundary_splits = splits;
                 if rejected.is_some() {
                     rep.bcc_rejected = rejected;
                 }
@@ -911,22 +928,39 @@ fn polish(lattice: Lattice, tm: &mut TetMesh, rep: &mut VolumeReport) -> Option<
 /// refuse the volume instead, naming where.
 fn refuse_flat(tm: &TetMesh, steiner: usize) -> Result<(), MeshError> {
     let flat = tet::steiner::FLAT_Q;
-    let Some(t) = tm
+    // each flat tetrahedron as a ball (centroid, farthest corner): a
+    // finer surface mesh there (a place, see engine::refine) gives its
+    // corners room
+    let spots: Vec<(P3, f64)> = tm
         .tets
         .iter()
-        .find(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t) < flat)
-    else {
+        .filter(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t) < flat)
+        .take(connect::MAX_REPORTED)
+        .map(|t| {
+            let c = P3::from(
+                t.iter()
+                    .fold(V3::zeros(), |a, &k| a + tm.pos[k as usize].coords)
+                    / 4.0,
+            );
+            let r = t
+                .iter()
+                .map(|&k| (tm.pos[k as usize] - c).norm())
+                .fold(0.0, f64::max);
+            (c, r)
+        })
+        .collect();
+    let Some(&(c, _)) = spots.first() else {
         return Ok(());
     };
-    let c = t
-        .iter()
-        .fold(V3::zeros(), |a, &k| a + tm.pos[k as usize].coords)
-        / 4.0;
-    Err(MeshError::Invalid(format!(
-        "a tetrahedron near ({:.6}, {:.6}, {:.6}) stays flat (radius ratio below {:e}) after \
-         sliver removal and {} Steiner point(s); try a smaller size there",
-        c.x, c.y, c.z, flat, steiner
-    )))
+    Err(MeshError::Refinable {
+        message: format!(
+            "a tetrahedron near ({:.6}, {:.6}, {:.6}) stays flat (radius ratio below {:e}) after \
+             sliver removal and {} Steiner point(s); try a smaller size there",
+            c.x, c.y, c.z, flat, steiner
+        ),
+        faces: vec![],
+        spots,
+    })
 }
 
 /// Adds the volume's free nodes that a tetrahedron uses, and its

@@ -32,13 +32,41 @@ use std::collections::{HashMap, HashSet};
 /// every pair it can; a later pass sees pairs whose neighbour turned).
 const PASSES: usize = 8;
 
-fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
+pub(crate) fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
     t.sort_unstable();
     t
 }
 
-fn key(a: u32, b: u32) -> (u32, u32) {
+pub(crate) fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
+}
+
+/// The faces (sorted global node ids) of the Delaunay tetrahedralization
+/// of the nodes of the triangles `idx` of `mesh`; `None` when those nodes
+/// cannot be tetrahedralized or two of them coincide (the volume stage
+/// reports that itself).
+pub(crate) fn delaunay_faces(mesh: &Mesh, idx: &[usize]) -> Option<HashSet<[u32; 3]>> {
+    let mut nodes: Vec<u32> = idx.iter().flat_map(|&k| mesh.triangles[k].nodes).collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    let coords: Vec<[f64; 3]> = nodes
+        .iter()
+        .map(|&g| {
+            let p = mesh.nodes[g as usize].pos;
+            [p.x, p.y, p.z]
+        })
+        .collect();
+    let dt = bubblemesh_delaunay::tetrahedralize(&coords).ok()?;
+    if !dt.duplicates.is_empty() {
+        return None;
+    }
+    let mut delaunay: HashSet<[u32; 3]> = HashSet::with_capacity(4 * dt.tets.len());
+    for t in &dt.tets {
+        for f in &TET_FACES {
+            delaunay.insert(sorted3(f.map(|i| nodes[t[i] as usize])));
+        }
+    }
+    Some(delaunay)
 }
 
 /// Turns pairs of the triangles of `faces` in `mesh` (global node ids)
@@ -55,29 +83,9 @@ pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
     if idx.is_empty() {
         return 0;
     }
-    // the boundary nodes and their Delaunay faces (global ids)
-    let mut nodes: Vec<u32> = idx.iter().flat_map(|&k| mesh.triangles[k].nodes).collect();
-    nodes.sort_unstable();
-    nodes.dedup();
-    let coords: Vec<[f64; 3]> = nodes
-        .iter()
-        .map(|&g| {
-            let p = mesh.nodes[g as usize].pos;
-            [p.x, p.y, p.z]
-        })
-        .collect();
-    let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
+    let Some(delaunay) = delaunay_faces(mesh, &idx) else {
         return 0;
     };
-    if !dt.duplicates.is_empty() {
-        return 0;
-    }
-    let mut delaunay: HashSet<[u32; 3]> = HashSet::with_capacity(4 * dt.tets.len());
-    for t in &dt.tets {
-        for f in &TET_FACES {
-            delaunay.insert(sorted3(f.map(|i| nodes[t[i] as usize])));
-        }
-    }
     let missing = |mesh: &Mesh, k: usize| !delaunay.contains(&sorted3(mesh.triangles[k].nodes));
     if !idx.iter().any(|&k| missing(mesh, k)) {
         return 0;
