@@ -30,7 +30,11 @@ fn realstep(name: &str) -> Option<PathBuf> {
 }
 
 /// Meshes `input` and returns the mesh read back and the JSON report.
-fn mesh(input: &PathBuf, size: &str, dim: &str) -> (bubblemesh_core::Mesh, serde_json::Value) {
+fn mesh(
+    input: &std::path::Path,
+    size: &str,
+    dim: &str,
+) -> (bubblemesh_core::Mesh, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let (out, report) = (dir.path().join("m.msh"), dir.path().join("r.json"));
     let o = Command::new(env!("CARGO_BIN_EXE_bubblemesh"))

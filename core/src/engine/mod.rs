@@ -434,28 +434,31 @@ impl Attempt<'_> {
     /// [`mesh_once`]).
     fn volumes(&mut self, volume_spacing: &dyn Spacing) -> Result<(), MeshError> {
         let (model, opts) = (self.model, self.opts);
-        // the face nodes are the fixed bubbles of the volumes: their spacing
-        for n in &self.mesh.nodes[self.node_d.len()..] {
-            let d = self.spacing.spacing(&SpacingQuery {
-                point: n.pos,
-                entity: n.entity,
-                params: n.params,
-            });
-            self.node_d.push(check_spacing(d, n.pos, n.entity)?);
-        }
         for vi in 0..model.volumes.len() {
             let e = EntityRef::new(3, vi as u32);
-            let vr = volume::mesh_volume(
+            let (flips, splits) = volume::recover_boundary(model, vi, &mut self.mesh);
+            // the face nodes (and the splits' nodes) are the fixed bubbles
+            // of the volumes: their spacing
+            for n in &self.mesh.nodes[self.node_d.len()..] {
+                let d = self.spacing.spacing(&SpacingQuery {
+                    point: n.pos,
+                    entity: n.entity,
+                    params: n.params,
+                });
+                self.node_d.push(check_spacing(d, n.pos, n.entity)?);
+            }
+            let mut vr = volume::mesh_volume(
                 model,
                 vi,
                 volume_spacing,
                 opts,
                 &mut self.mesh,
-                self.spacing,
-                &mut self.node_d,
+                &self.node_d,
                 &mut self.report.timings,
             )
             .map_err(|x| x.within(model.describe(e)))?;
+            vr.boundary_flips = flips;
+            vr.boundary_splits = splits;
             tell_passes(opts, e, &vr);
             self.report.volumes.push(vr);
             opts.tell(&Event::Done {

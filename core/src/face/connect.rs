@@ -723,16 +723,20 @@ mod tests {
         }
     }
 
-    /// A half cone of semi-angle 59° with its apex on the boundary (as
-    /// face #6366 of `as_0083` in `../shared/realstep`, meshed at a spacing
-    /// larger than the face): points on rings s = ½ and s = 1, the apex a
-    /// boundary vertex with no usable normal. (u, v) = (θ, s).
-    fn half_cone() -> (
+    /// Parameters, positions, normals and the directed boundary of a
+    /// test face.
+    type TestFace = (
         Vec<[f64; 2]>,
         Vec<crate::geom::P3>,
         Vec<crate::geom::V3>,
         Vec<[usize; 2]>,
-    ) {
+    );
+
+    /// A half cone of semi-angle 59° with its apex on the boundary (as
+    /// face #6366 of `as_0083` in `../shared/realstep`, meshed at a spacing
+    /// larger than the face): points on rings s = ½ and s = 1, the apex a
+    /// boundary vertex with no usable normal. (u, v) = (θ, s).
+    fn half_cone() -> TestFace {
         use crate::geom::{P3, V3};
         let a = 59f64.to_radians();
         let point =

@@ -551,6 +551,21 @@ enum Attempt {
     GiveUp(f64),
 }
 
+/// Makes the boundary of volume `vi` Delaunay where it can, before
+/// [`mesh_volume`]: co-spherical quadrilaterals of the face meshes turned
+/// the way the tetrahedralization will have them ([`recover`]), then the
+/// triangles still missing split on the geometry ([`split`]; the new nodes
+/// are appended to `mesh.nodes`). Returns the pairs turned and the splits.
+pub(super) fn recover_boundary(
+    model: &crate::model::Model,
+    vi: usize,
+    mesh: &mut crate::mesh::Mesh,
+) -> (usize, split::Splits) {
+    let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
+    let flips = recover::flip_to_delaunay(mesh, &faces);
+    (flips, split::split_to_delaunay(model, mesh, vi))
+}
+
 /// Meshes volume `vi` whose faces are meshed in `mesh`: a BCC start where
 /// the spacing is uniform (see the module docs), and the thesis's FCC
 /// start when there is none or the BCC one is given up.
@@ -560,8 +575,7 @@ pub(super) fn mesh_volume(
     spacing: &dyn Spacing,
     opts: &crate::options::Options,
     mesh: &mut crate::mesh::Mesh,
-    node_spacing: &dyn Spacing,
-    node_d: &mut Vec<f64>,
+    node_d: &[f64],
     timings: &mut crate::options::Timings,
 ) -> Result<VolumeReport, MeshError> {
     let mut lattice = match (opts.volume_lattice, spacing.constant()) {
@@ -569,35 +583,18 @@ pub(super) fn mesh_volume(
         _ => Lattice::Fcc,
     };
     let mut rejected = None;
-    // co-spherical quadrilaterals of the face meshes turned the way the
-    // tetrahedralization will have them (see recover)
-    let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
-    let flips = recover::flip_to_delaunay(mesh, &faces);
-    // triangles the flips could not make Delaunay: split on the geometry
-    // (see split); the new nodes' spacing as the engine gives it
-    let splits = split::split_to_delaunay(model, mesh, vi);
-    for n in &mesh.nodes[node_d.len()..] {
-        let d = node_spacing.spacing(&crate::spacing::SpacingQuery {
-            point: n.pos,
-            entity: n.entity,
-            params: n.params,
-        });
-        node_d.push(crate::error::check_spacing(d, n.pos, n.entity)?);
-    }
     let job = VolumeJob {
         model,
         vi,
         entity: EntityRef::new(3, vi as u32),
         spacing,
         opts,
-        node_d: &*node_d,
+        node_d,
     };
     loop {
         let boundary = Boundary::of(&job, mesh)?;
         match attempt(&job, &boundary, lattice, mesh, timings)? {
             Attempt::Done(mut rep) => {
-                rep.boundary_flips = flips;
-                rep.boundary_splits = splits;
                 if rejected.is_some() {
                     rep.bcc_rejected = rejected;
                 }
