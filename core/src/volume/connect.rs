@@ -249,15 +249,19 @@ fn remove_blockers(
     }
 }
 
-/// Removes, for each missing boundary triangle that is a face of the
-/// Delaunay tetrahedralization of the boundary points alone, the free
-/// points inside the circumsphere of one of its tetrahedra there (the one
-/// holding fewer free points). That sphere is empty of boundary points,
-/// so once it is empty of free points too its tetrahedron, and with it
-/// the triangle, is Delaunay: the exact cure where the triangle's
-/// diametral ball holds boundary points and so is no witness (a boundary
-/// split to Delaunay by [`super::split`] needs it). Triangles that are no
-/// such face are left (nothing free blocks them).
+/// Removes, for each missing boundary triangle, the free points inside
+/// the sphere through its corners that is empty of boundary points and
+/// bulges farthest outward (the free points lie inside the volume, so
+/// that sphere holds the fewest of them). The spheres through a triangle
+/// are centred at c + t·n (c its circumcentre, n its outward unit normal,
+/// radius² = R² + t²); a point p is inside when |p − c|² − R² < 2t·n·(p − c),
+/// so the boundary points bound t to an interval [lo, hi], empty when the
+/// triangle is no face of the Delaunay tetrahedralization of the boundary
+/// points (nothing free blocks it then; it is left). The sphere taken is
+/// t just inside hi. Once it is empty of free points the triangle is
+/// Delaunay: the exact cure where the diametral ball holds boundary points
+/// and so is no witness (a boundary split to Delaunay by [`super::split`]
+/// needs it).
 fn remove_sphere_blockers(
     pts: &[P3],
     n_fixed: usize,
@@ -266,39 +270,49 @@ fn remove_sphere_blockers(
     kept: &mut [bool],
     removed: &mut usize,
 ) {
-    let coords: Vec<[f64; 3]> = pts[..n_fixed].iter().map(|p| [p.x, p.y, p.z]).collect();
-    let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
-        return;
-    };
-    let wanted: HashMap<[u32; 3], usize> =
-        missing.iter().map(|&k| (sorted3(boundary[k]), k)).collect();
-    let mut spheres: HashMap<usize, Vec<(P3, f64)>> = HashMap::new();
-    for t in &dt.tets {
-        for f in &FACE {
-            if let Some(&k) = wanted.get(&sorted3(f.map(|i| t[i]))) {
-                let [a, b, c, d] = t.map(|i| pts[i as usize]);
-                if let Some(o) = crate::measure::tet_circumcentre(&a, &b, &c, &d) {
-                    spheres.entry(k).or_default().push((o, (a - o).norm()));
-                }
+    let free: Vec<usize> = (n_fixed..pts.len()).filter(|&i| kept[i]).collect();
+    let mut drop: HashSet<usize> = HashSet::new();
+    for &k in missing {
+        let tri = boundary[k];
+        let [a, b, c] = tri.map(|i| pts[i as usize]);
+        let (cc, r) = circumball(&a, &b, &c);
+        let n = (b - a).cross(&(c - a));
+        if !(n.norm() > 0.0 && r.is_finite()) {
+            continue;
+        }
+        let n = n.normalize();
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        for (i, p) in pts[..n_fixed].iter().enumerate() {
+            if tri.contains(&(i as u32)) {
+                continue;
+            }
+            let v = p - cc;
+            let (h, q) = (n.dot(&v), v.norm_squared() - r * r);
+            if h > 0.0 {
+                hi = hi.min(q / (2.0 * h));
+            } else if h < 0.0 {
+                lo = lo.max(q / (2.0 * h));
+            } else if q < 0.0 {
+                lo = f64::INFINITY;
             }
         }
-    }
-    let free: Vec<usize> = (n_fixed..pts.len()).filter(|&i| kept[i]).collect();
-    let inside = |o: &P3, r: f64| -> Vec<usize> {
-        free.iter()
-            .copied()
-            .filter(|&i| (pts[i] - o).norm() <= r * (1.0 + 1e-9))
-            .collect()
-    };
-    let mut drop: HashSet<usize> = HashSet::new();
-    let mut ks: Vec<&usize> = spheres.keys().collect();
-    ks.sort_unstable();
-    for k in ks {
-        let best = spheres[k]
-            .iter()
-            .map(|(o, r)| inside(o, *r))
-            .min_by_key(|v| v.len());
-        drop.extend(best.into_iter().flatten());
+        if !(lo < hi) {
+            continue;
+        }
+        let t = if hi.is_finite() && lo.is_finite() {
+            hi - 0.01 * (hi - lo)
+        } else if hi.is_finite() {
+            hi - 0.01 * (hi.abs() + r)
+        } else {
+            lo.max(0.0) + 10.0 * r
+        };
+        let centre = cc + n * t;
+        let r2 = r * r + t * t;
+        drop.extend(
+            free.iter()
+                .copied()
+                .filter(|&i| (pts[i] - centre).norm_squared() <= r2 * (1.0 + 1e-9)),
+        );
     }
     for i in drop {
         if kept[i] {

@@ -69,6 +69,82 @@ pub(crate) fn delaunay_faces(mesh: &Mesh, idx: &[usize]) -> Option<HashSet<[u32;
     Some(delaunay)
 }
 
+/// Two triangles of one face on a shared edge that is no mesh line: the
+/// triangle `k` = (a, b, c) and its neighbour `m` = (b, a, d), the
+/// quadrilateral a→d→b→c.
+pub(crate) struct Quad {
+    pub m: usize,
+    pub a: u32,
+    pub b: u32,
+    pub c: u32,
+    pub d: u32,
+}
+
+impl Quad {
+    /// The quadrilateral across edge `i` of triangle `k`, where it may be
+    /// turned: the edge is no mesh line, has exactly two triangles, both
+    /// of the same face and neither in `touched`, and the other diagonal
+    /// c–d is not an edge already. `by_edge`: the triangles of each edge.
+    pub(crate) fn across(
+        mesh: &Mesh,
+        by_edge: &HashMap<(u32, u32), Vec<usize>>,
+        lines: &HashSet<(u32, u32)>,
+        touched: &HashSet<usize>,
+        k: usize,
+        i: usize,
+    ) -> Option<Quad> {
+        let t = mesh.triangles[k];
+        let (a, b, c) = (t.nodes[i], t.nodes[(i + 1) % 3], t.nodes[(i + 2) % 3]);
+        if lines.contains(&key(a, b)) {
+            return None;
+        }
+        let users = by_edge.get(&key(a, b))?;
+        if users.len() != 2 {
+            return None;
+        }
+        let m = if users[0] == k { users[1] } else { users[0] };
+        if touched.contains(&m) || mesh.triangles[m].entity != t.entity {
+            return None;
+        }
+        // the neighbour as (b, a, d): the shared edge reversed
+        let u = mesh.triangles[m].nodes;
+        let j = (0..3).find(|&j| u[j] == b && u[(j + 1) % 3] == a)?;
+        let d = u[(j + 2) % 3];
+        if d == c || by_edge.contains_key(&key(c, d)) {
+            return None;
+        }
+        Some(Quad { m, a, b, c, d })
+    }
+
+    /// The pair along the other diagonal, (a, d, c) and (d, b, c): the
+    /// quadrilateral's orientation kept.
+    pub(crate) fn turned(&self) -> [[u32; 3]; 2] {
+        let Quad { a, b, c, d, .. } = *self;
+        [[a, d, c], [d, b, c]]
+    }
+
+    /// Whether the turned pair faces the way the old one did, neither
+    /// triangle flat.
+    pub(crate) fn turn_keeps_facing(&self, mesh: &Mesh) -> bool {
+        let pos = |g: u32| -> P3 { mesh.nodes[g as usize].pos };
+        let normal = |t: [u32; 3]| {
+            let (p, q, r) = (pos(t[0]), pos(t[1]), pos(t[2]));
+            (q - p).cross(&(r - p))
+        };
+        let Quad { a, b, c, d, .. } = *self;
+        let (n1, n2) = (normal([a, b, c]), normal([b, a, d]));
+        let (l1, l2) = (n1.norm(), n2.norm());
+        if !(l1 > 0.0 && l2 > 0.0) {
+            return false;
+        }
+        let old = n1 / l1 + n2 / l2;
+        self.turned().iter().all(|&t| {
+            let n = normal(t);
+            n.norm() > 1e-12 * (l1 + l2) && n.dot(&old) > 0.0
+        })
+    }
+}
+
 /// Turns pairs of the triangles of `faces` in `mesh` (global node ids)
 /// whose quadrilateral's other diagonal is Delaunay in 3D, as the module
 /// docs say. Returns how many pairs were turned; 0 when the boundary nodes
@@ -95,7 +171,6 @@ pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
         .iter()
         .map(|l| key(l.nodes[0], l.nodes[1]))
         .collect();
-    let pos = |g: u32| -> P3 { mesh.nodes[g as usize].pos };
     let mut turned = 0;
     for _ in 0..PASSES {
         // the triangles of each undirected edge
@@ -115,52 +190,15 @@ pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
             if touched.contains(&k) || !missing(mesh, k) {
                 continue;
             }
-            let t = mesh.triangles[k];
             for i in 0..3 {
-                let (a, b, c) = (t.nodes[i], t.nodes[(i + 1) % 3], t.nodes[(i + 2) % 3]);
-                if lines.contains(&key(a, b)) {
-                    continue;
-                }
-                let Some(users) = by_edge.get(&key(a, b)) else {
+                let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
                     continue;
                 };
-                if users.len() != 2 {
-                    continue;
-                }
-                let m = if users[0] == k { users[1] } else { users[0] };
-                if touched.contains(&m) || mesh.triangles[m].entity != t.entity {
-                    continue;
-                }
-                // the neighbour as (b, a, d): the shared edge reversed
-                let u = mesh.triangles[m].nodes;
-                let Some(j) = (0..3).find(|&j| u[j] == b && u[(j + 1) % 3] == a) else {
-                    continue;
-                };
-                let d = u[(j + 2) % 3];
-                if d == c || by_edge.contains_key(&key(c, d)) {
-                    continue;
-                }
-                let (t1, t2) = ([a, d, c], [d, b, c]);
+                let (m, [t1, t2]) = (q.m, q.turned());
                 if !delaunay.contains(&sorted3(t1)) || !delaunay.contains(&sorted3(t2)) {
                     continue;
                 }
-                // the new pair faces the way the old one did, neither flat
-                let normal = |t: [u32; 3]| {
-                    let (p, q, r) = (pos(t[0]), pos(t[1]), pos(t[2]));
-                    (q - p).cross(&(r - p))
-                };
-                let (n1, n2) = (normal([a, b, c]), normal([b, a, d]));
-                let (l1, l2) = (n1.norm(), n2.norm());
-                if !(l1 > 0.0 && l2 > 0.0) {
-                    continue;
-                }
-                let old = n1 / l1 + n2 / l2;
-                let ok = |t: [u32; 3]| {
-                    let n = normal(t);
-                    let ln = n.norm();
-                    ln > 1e-12 * (l1 + l2) && n.dot(&old) > 0.0
-                };
-                if !ok(t1) || !ok(t2) {
+                if !q.turn_keeps_facing(mesh) {
                     continue;
                 }
                 touched.insert(k);

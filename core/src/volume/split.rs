@@ -26,7 +26,7 @@
 //! splits is bounded ([`MAX_ROUNDS`], [`max_splits`]), after which the
 //! volume stage reports the triangles still missing, as before.
 
-use super::recover::{delaunay_faces, key, sorted3};
+use super::recover::{delaunay_faces, key, sorted3, Quad};
 use crate::geom::P3;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -261,56 +261,21 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
             if touched.contains(&k) {
                 continue;
             }
-            let t = mesh.triangles[k];
             for i in 0..3 {
-                let (a, b, c) = (t.nodes[i], t.nodes[(i + 1) % 3], t.nodes[(i + 2) % 3]);
-                if lines.contains(&key(a, b)) {
-                    continue;
-                }
-                let Some(users) = by_edge.get(&key(a, b)) else {
+                let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
                     continue;
                 };
-                if users.len() != 2 {
-                    continue;
-                }
-                let m = if users[0] == k { users[1] } else { users[0] };
-                if touched.contains(&m) || mesh.triangles[m].entity != t.entity {
-                    continue;
-                }
-                let u = mesh.triangles[m].nodes;
-                let Some(j) = (0..3).find(|&j| u[j] == b && u[(j + 1) % 3] == a) else {
-                    continue;
-                };
-                let d = u[(j + 2) % 3];
-                if d == c || by_edge.contains_key(&key(c, d)) {
-                    continue;
-                }
-                let angle = |o: u32, p: u32, q: u32| {
-                    let (x, y) = (pos(mesh, p) - pos(mesh, o), pos(mesh, q) - pos(mesh, o));
-                    x.angle(&y)
+                let angle = |o: u32, p: u32, r: u32| {
+                    (pos(mesh, p) - pos(mesh, o)).angle(&(pos(mesh, r) - pos(mesh, o)))
                 };
                 // a little beyond π, so that co-circular pairs stay
-                if angle(c, a, b) + angle(d, b, a) <= std::f64::consts::PI + 1e-9 {
+                if angle(q.c, q.a, q.b) + angle(q.d, q.b, q.a) <= std::f64::consts::PI + 1e-9 {
                     continue;
                 }
-                let normal = |t: [u32; 3]| {
-                    let (p, q, r) = (pos(mesh, t[0]), pos(mesh, t[1]), pos(mesh, t[2]));
-                    (q - p).cross(&(r - p))
-                };
-                let (n1, n2) = (normal([a, b, c]), normal([b, a, d]));
-                let (l1, l2) = (n1.norm(), n2.norm());
-                if !(l1 > 0.0 && l2 > 0.0) {
+                if !q.turn_keeps_facing(mesh) {
                     continue;
                 }
-                let old = n1 / l1 + n2 / l2;
-                let (t1, t2) = ([a, d, c], [d, b, c]);
-                let ok = |t: [u32; 3]| {
-                    let n = normal(t);
-                    n.norm() > 1e-12 * (l1 + l2) && n.dot(&old) > 0.0
-                };
-                if !ok(t1) || !ok(t2) {
-                    continue;
-                }
+                let (m, [t1, t2]) = (q.m, q.turned());
                 mesh.triangles[k].nodes = t1;
                 mesh.triangles[m].nodes = t2;
                 touched.insert(k);
