@@ -167,32 +167,9 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
             let Some(node) = midpoint(model, mesh, a, b, line, users) else {
                 continue;
             };
-            let m = mesh.nodes.len() as u32;
             *per.entry(node.entity).or_default() += 1;
-            mesh.nodes.push(node);
-            for &k in users {
-                touched.insert(k);
-                let t = mesh.triangles[k];
-                let Some(i) = (0..3).find(|&i| key(t.nodes[i], t.nodes[(i + 1) % 3]) == key(a, b))
-                else {
-                    continue;
-                };
-                let (x, y, c) = (t.nodes[i], t.nodes[(i + 1) % 3], t.nodes[(i + 2) % 3]);
-                mesh.triangles[k].nodes = [x, m, c];
-                mesh.triangles.push(Element {
-                    nodes: [m, y, c],
-                    entity: t.entity,
-                });
-            }
-            if let Some(l) = line {
-                let [p, q] = mesh.lines[l].nodes;
-                mesh.lines[l].nodes = [p, m];
-                let entity = mesh.lines[l].entity;
-                mesh.lines.push(Element {
-                    nodes: [m, q],
-                    entity,
-                });
-            }
+            touched.extend(users.iter().copied());
+            split_edge(mesh, a, b, node, users, line);
             out.count += 1;
             done += 1;
         }
@@ -219,6 +196,35 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
     by.sort_unstable();
     out.by_entity = by;
     out
+}
+
+/// Splits mesh edge a–b at `node` (appended to the mesh): each triangle
+/// of `users` (x, y, c) on the edge becomes (x, m, c) and (m, y, c), the
+/// mesh line `line` a–b becomes a–m and m–b.
+fn split_edge(mesh: &mut Mesh, a: u32, b: u32, node: Node, users: &[usize], line: Option<usize>) {
+    let m = mesh.nodes.len() as u32;
+    mesh.nodes.push(node);
+    for &k in users {
+        let t = mesh.triangles[k];
+        let Some(i) = (0..3).find(|&i| key(t.nodes[i], t.nodes[(i + 1) % 3]) == key(a, b)) else {
+            continue;
+        };
+        let (x, y, c) = (t.nodes[i], t.nodes[(i + 1) % 3], t.nodes[(i + 2) % 3]);
+        mesh.triangles[k].nodes = [x, m, c];
+        mesh.triangles.push(Element {
+            nodes: [m, y, c],
+            entity: t.entity,
+        });
+    }
+    if let Some(l) = line {
+        let [p, q] = mesh.lines[l].nodes;
+        mesh.lines[l].nodes = [p, m];
+        let entity = mesh.lines[l].entity;
+        mesh.lines.push(Element {
+            nodes: [m, q],
+            entity,
+        });
+    }
 }
 
 /// At most this many passes of [`lawson_flips`].
