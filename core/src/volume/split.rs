@@ -23,8 +23,9 @@
 //! (x, m, c) and (m, y, c) — orientation kept, same face — and a mesh line
 //! a–b by a–m, m–b; the triangles of a face that bounds a volume meshed
 //! before are never split (its tetrahedra are written); the number of
-//! splits is bounded ([`MAX_ROUNDS`], [`max_splits`]), after which the
-//! volume stage reports the triangles still missing, as before.
+//! splits is bounded ([`MAX_ROUNDS`], [`max_splits`], [`STALL_ROUNDS`]),
+//! after which the triangles still missing go to the refinement by places
+//! ([`crate::engine::refine`]), as before.
 
 use super::recover::{delaunay_faces, key, sorted3, Quad};
 use crate::geom::P3;
@@ -37,15 +38,17 @@ use std::collections::{HashMap, HashSet};
 /// triangle).
 pub const MAX_ROUNDS: usize = 80;
 
-/// The most splits of one volume: as many as it has boundary triangles
-/// (so the surface grows at most threefold), at least 256.
+/// The most splits of one volume: four times its boundary triangles (each
+/// split adds two triangles, so the surface grows at most ninefold), at
+/// least 256. A wall far thinner than the spacing needs many splits per
+/// triangle (the triangles must shrink to its thickness).
 pub fn max_splits(boundary_triangles: usize) -> usize {
     (4 * boundary_triangles).max(256)
 }
 
 /// Rounds without a new least number of missing triangles after which
 /// the splits stop.
-const STALL_ROUNDS: usize = 8;
+pub const STALL_ROUNDS: usize = 8;
 
 /// An edge shorter than this fraction of the boundary's bounding-box
 /// diagonal is not split further (a cascade at a needle-sharp edge).
