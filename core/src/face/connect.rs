@@ -373,17 +373,7 @@ pub fn triangulate_projected(
     // a positive component along `nrm`, so `boundary` keeps the face on its
     // left
     let tris = triangulate(&puv, segments, boundary, |_| false)?;
-    let mut uses: HashMap<(usize, usize), u32> = HashMap::new();
-    for t in &tris {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    if let Some(s) = boundary
-        .iter()
-        .find(|s| uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
-    {
+    if let Some(s) = first_unclosed(&tris, boundary) {
         let p = pts.pos[s[0]];
         return Err(ConnectError::Coarse(format!(
             "its projection onto one plane does not close at ({}, {}, {})",
@@ -640,17 +630,7 @@ fn tangent_cap(
     // silently). An orphan the cap leaves out lies between a boundary
     // segment and its curve, outside the chord polygon: the caller
     // drops such bubbles.
-    let mut cap_uses: HashMap<(usize, usize), u32> = HashMap::new();
-    for t in &cap {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            *cap_uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    if let Some(s) = segs
-        .iter()
-        .find(|s| cap_uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
-    {
+    if let Some(s) = first_unclosed(&cap, &segs) {
         let p = pts.pos[local[s[0]]];
         return Err(ConnectError::Coarse(format!(
             "a hole around a pole or a tight bend near ({}, {}, {}) is not closed by its tangent-plane fill",
@@ -658,6 +638,21 @@ fn tangent_cap(
         )));
     }
     Ok(cap)
+}
+
+/// The first of `segments` that is not an edge of exactly one of `tris`
+/// (a hole left open, or a segment covered twice).
+fn first_unclosed<'s>(tris: &[[usize; 3]], segments: &'s [[usize; 2]]) -> Option<&'s [usize; 2]> {
+    let mut uses: HashMap<(usize, usize), u32> = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    segments
+        .iter()
+        .find(|s| uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
 }
 
 /// Signed area of a triangle of `uv` (positive when counter-clockwise).

@@ -69,6 +69,21 @@ pub(crate) fn delaunay_faces(mesh: &Mesh, idx: &[usize]) -> Option<HashSet<[u32;
     Some(delaunay)
 }
 
+/// The triangles `idx` of `mesh` by undirected edge.
+pub(crate) fn by_edge(
+    mesh: &Mesh,
+    idx: impl IntoIterator<Item = usize>,
+) -> HashMap<(u32, u32), Vec<usize>> {
+    let mut out: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    for k in idx {
+        let t = mesh.triangles[k].nodes;
+        for i in 0..3 {
+            out.entry(key(t[i], t[(i + 1) % 3])).or_default().push(k);
+        }
+    }
+    out
+}
+
 /// Two triangles of one face on a shared edge that is no mesh line: the
 /// triangle `k` = (a, b, c) and its neighbour `m` = (b, a, d), the
 /// quadrilateral a→d→b→c.
@@ -173,17 +188,7 @@ pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
         .collect();
     let mut turned = 0;
     for _ in 0..PASSES {
-        // the triangles of each undirected edge
-        let mut by_edge: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
-        for &k in &idx {
-            let t = mesh.triangles[k].nodes;
-            for i in 0..3 {
-                by_edge
-                    .entry(key(t[i], t[(i + 1) % 3]))
-                    .or_default()
-                    .push(k);
-            }
-        }
+        let by_edge = by_edge(mesh, idx.iter().copied());
         let mut touched: HashSet<usize> = HashSet::new();
         let mut flips: Vec<(usize, [u32; 3], usize, [u32; 3])> = Vec::new();
         for &k in &idx {

@@ -27,7 +27,7 @@
 //! after which the triangles still missing go to the refinement by places
 //! ([`crate::engine::refine`]), as before.
 
-use super::recover::{delaunay_faces, key, sorted3, Quad};
+use super::recover::{by_edge, delaunay_faces, key, sorted3, Quad};
 use crate::geom::P3;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -117,15 +117,7 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
             break;
         }
         // every triangle of the mesh by undirected edge
-        let mut by_edge: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
-        for (k, t) in mesh.triangles.iter().enumerate() {
-            for i in 0..3 {
-                by_edge
-                    .entry(key(t.nodes[i], t.nodes[(i + 1) % 3]))
-                    .or_default()
-                    .push(k);
-            }
-        }
+        let by_edge = by_edge(mesh, 0..mesh.triangles.len());
         let lines: HashMap<(u32, u32), usize> = mesh
             .lines
             .iter()
@@ -254,16 +246,7 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
         .collect();
     let pos = |mesh: &Mesh, g: u32| mesh.nodes[g as usize].pos;
     for _ in 0..LAWSON_PASSES {
-        let mut by_edge: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
-        for &k in &idx {
-            let t = mesh.triangles[k].nodes;
-            for i in 0..3 {
-                by_edge
-                    .entry(key(t[i], t[(i + 1) % 3]))
-                    .or_default()
-                    .push(k);
-            }
-        }
+        let by_edge = by_edge(mesh, idx.iter().copied());
         let mut touched: HashSet<usize> = HashSet::new();
         let mut turned = 0;
         for &k in &idx {
