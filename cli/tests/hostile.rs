@@ -600,3 +600,20 @@ fn mesh_help_names_step_and_toml_inputs() {
     let o = run(&["--help"]);
     assert!(stdout(&o).contains("STEP"), "{}", stdout(&o));
 }
+
+/// A spacing so small that an edge's bubble count overflows usize
+/// (1e-300 on a unit square): the count wrapped to 0 and the edge
+/// placement looped forever. It must be the too-many-bubbles error, at
+/// once, with nothing written.
+#[test]
+fn tiny_size_overflowing_the_bubble_count_is_an_error_not_a_hang() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = square_in(dir.path());
+    let out = dir.path().join("a.msh");
+    let t = std::time::Instant::now();
+    let o = run(&["mesh", s(&input), "-o", s(&out), "--size", "1e-300"]);
+    assert_failed_cleanly(&o, 1);
+    assert!(stderr(&o).contains("bubbles"), "{}", stderr(&o));
+    assert!(!out.exists());
+    assert!(t.elapsed().as_secs() < 60, "took {:?}", t.elapsed());
+}

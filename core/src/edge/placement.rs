@@ -90,6 +90,13 @@ pub fn equidistribute_edge(
         }
         // refine until there are at least 16 samples per piece
         if (m as f64) < 16.0 * total && m < (1 << 26) {
+            // compared as a float first: a spacing like 1e-300 makes the
+            // count overflow usize, and the wrapped count looped forever
+            if 16.0 * total > MAX_BUBBLES_PER_ENTITY as f64 {
+                return Err(MeshError::TooManyBubbles {
+                    limit: MAX_BUBBLES_PER_ENTITY,
+                });
+            }
             m = ((16.0 * total) as usize + 1).next_power_of_two();
             if m > MAX_BUBBLES_PER_ENTITY {
                 return Err(MeshError::TooManyBubbles {
