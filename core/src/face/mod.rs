@@ -26,7 +26,7 @@ pub(crate) mod improve;
 pub(crate) mod orient;
 pub(crate) mod placement;
 pub(crate) mod region;
-mod warm;
+pub(crate) mod warm;
 
 use std::time::Instant;
 

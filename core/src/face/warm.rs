@@ -141,7 +141,7 @@ pub(super) fn stage1<'a>(
 
 /// Kept bubbles set aside during stage 2 (positions, parameters,
 /// diameters).
-pub(super) type Far = (Vec<P3>, Vec<[f64; 2]>, Vec<f64>);
+pub(crate) type Far = (Vec<P3>, Vec<[f64; 2]>, Vec<f64>);
 
 /// A kept bubble joins stage 2 only if it lies within this many of its
 /// spacings of a seed: the force reaches 1.5 spacings, and a short stage 2
@@ -154,7 +154,7 @@ const WALL: f64 = 2.5;
 /// Takes the kept bubbles (fixed bubbles from `first` on) farther than
 /// [`NEAR`] spacings from every seed and [`WALL`] spacings from every
 /// boundary bubble out of the fixed arrays.
-fn split_far(
+pub(crate) fn split_far(
     pos: &mut Vec<P3>,
     uv: &mut Vec<[f64; 2]>,
     d: &mut Vec<f64>,
@@ -204,7 +204,7 @@ fn split_far(
 
 /// Puts the kept bubbles set aside back among the fixed ones (after the
 /// others, before the free ones), for the connection.
-pub(super) fn restore<C: Carrier>(sys: &mut System<'_, C>, far: Far) {
+pub(crate) fn restore<C: Carrier>(sys: &mut System<'_, C>, far: Far) {
     let nf = sys.n_fixed;
     let m = far.0.len();
     sys.pos.splice(nf..nf, far.0);

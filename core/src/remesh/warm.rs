@@ -183,8 +183,17 @@ pub fn plan(
         local: region.is_some(),
     };
     for (e, old) in matched {
+        // an edge's bubbles get their parameters on the new edge (and its
+        // range), a kept one keeping its old coordinates
+        let range = match e.dim {
+            1 => {
+                let x = &model.edges[e.id as usize];
+                [x.t0, x.t1]
+            }
+            _ => old.range,
+        };
         let mut start = EntityStart {
-            range: old.range,
+            range,
             ..Default::default()
         };
         for b in &old.bubbles {
@@ -193,10 +202,17 @@ pub fn plan(
                 (None, Some(f)) => f.frees(b),
                 (None, None) => true,
             };
+            let b = match e.dim {
+                1 => Bubble {
+                    params: carried(model, e, old.range, b).1,
+                    ..*b
+                },
+                _ => *b,
+            };
             if free {
-                start.free.push(*b);
+                start.free.push(b);
             } else {
-                start.kept.push(*b);
+                start.kept.push(b);
             }
         }
         m.free_bubbles += start.free.len();
@@ -275,7 +291,9 @@ impl Footprint {
 
 /// An old bubble carried over to the new geometry of `e` by its
 /// parameters: its new position and parameters (an edge's relative to its
-/// old range `range`; a volume's bubbles stay where they were).
+/// old range `range`, or, where the old point still lies on the new edge,
+/// that point's parameter — a line made longer keeps its nodes; a
+/// volume's bubbles stay where they were).
 fn carried(model: &Model, e: EntityRef, range: [f64; 2], b: &Bubble) -> (P3, [f64; 2]) {
     match e.dim {
         1 => {
@@ -286,6 +304,9 @@ fn carried(model: &Model, e: EntityRef, range: [f64; 2], b: &Bubble) -> (P3, [f6
             } else {
                 b.params[0]
             };
+            if let Some(s) = on_curve(&*edge.curve, edge.t0, edge.t1, t, &b.pos, DISTURBED * b.d) {
+                return (b.pos, [s, 0.0]);
+            }
             (edge.curve.point(t), [t, 0.0])
         }
         2 => {
@@ -294,6 +315,33 @@ fn carried(model: &Model, e: EntityRef, range: [f64; 2], b: &Bubble) -> (P3, [f6
         }
         _ => (b.pos, b.params),
     }
+}
+
+/// The parameter in `[t0, t1]` of the point of `curve` within `tol` of
+/// `p`, by Newton's method on (C(t) − p)·C′(t) = 0 from `guess`; `None`
+/// when `p` is farther from the curve (or the iteration leaves the range).
+fn on_curve(
+    curve: &dyn crate::geom::Curve,
+    t0: f64,
+    t1: f64,
+    guess: f64,
+    p: &P3,
+    tol: f64,
+) -> Option<f64> {
+    let mut t = guess.clamp(t0, t1);
+    for _ in 0..16 {
+        let r = curve.point(t) - p;
+        if r.norm() <= tol {
+            return Some(t);
+        }
+        let (c1, c2) = (curve.d1(t), curve.d2(t));
+        let (f, df) = (r.dot(&c1), c1.norm_squared() + r.dot(&c2));
+        if !(df > 0.0) {
+            return None;
+        }
+        t = (t - f / df).clamp(t0, t1);
+    }
+    ((curve.point(t) - p).norm() <= tol).then_some(t)
 }
 
 /// A region as the user wrote it.

@@ -43,6 +43,7 @@ pub(crate) mod recover;
 pub(crate) mod shell;
 pub(crate) mod split;
 pub(crate) mod tet;
+mod warm;
 
 pub use tet::SliverStats;
 
@@ -393,6 +394,10 @@ pub struct VolumeReport {
     /// Boundary edges split on the geometry before the connection, and
     /// where ([`split`]): there the face meshes are finer than requested.
     pub boundary_splits: split::Splits,
+    /// A warm start (§4.8): old bubbles kept fixed, old bubbles carried
+    /// over as stage 1, FCC seeds added where they left room ([`warm`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warm: Option<[usize; 3]>,
     pub relax: Option<crate::bubbles::system::RelaxStats>,
 }
 
@@ -578,7 +583,17 @@ pub(super) fn mesh_volume(
     node_d: &[f64],
     timings: &mut crate::options::Timings,
 ) -> Result<VolumeReport, MeshError> {
+    // a warm start (§4.8) replaces stage 1 by the old bubbles, which came
+    // from the FCC path (relaxed, ODT-smoothed): it takes that path
+    let warm = (!opts.fast)
+        .then(|| {
+            opts.warm
+                .as_deref()
+                .and_then(|w| w.of(EntityRef::new(3, vi as u32)))
+        })
+        .flatten();
     let mut lattice = match (opts.volume_lattice, spacing.constant()) {
+        _ if warm.is_some() => Lattice::Fcc,
         (VolumeLattice::Auto, Some(_)) => Lattice::Bcc,
         _ => Lattice::Fcc,
     };
@@ -593,7 +608,7 @@ pub(super) fn mesh_volume(
     };
     loop {
         let boundary = Boundary::of(&job, mesh)?;
-        match attempt(&job, &boundary, lattice, mesh, timings)? {
+        match attempt(&job, &boundary, lattice, warm, mesh, timings)? {
             Attempt::Done(mut rep) => {
                 if rejected.is_some() {
                     rep.bcc_rejected = rejected;
@@ -610,14 +625,19 @@ pub(super) fn mesh_volume(
     }
 }
 
-/// One attempt at the volume from `lattice`, in the order of its phases:
-/// stage 1 (seeds), stage 2 (relaxation) and ODT smoothing (FCC only),
-/// the connection, sliver removal with Steiner points, the polish, the
-/// check for flat tetrahedra, and writing the result into `mesh`.
+/// One attempt at the volume from `lattice` (or from the old bubbles of a
+/// warm start), in the order of its phases: stage 1 (seeds), stage 2
+/// (relaxation) and ODT smoothing (FCC only), the connection, sliver
+/// removal with Steiner points, the polish, the check for flat
+/// tetrahedra, and writing the result into `mesh`.
+///
+/// Local node numbering: the boundary's nodes, then a warm start's kept
+/// bubbles (`n_keep` in all: none of them moves), then the free bubbles.
 fn attempt(
     job: &VolumeJob<'_>,
     boundary: &Boundary,
     lattice: Lattice,
+    warm: Option<&crate::remesh::warm::EntityStart>,
     mesh: &mut crate::mesh::Mesh,
     timings: &mut crate::options::Timings,
 ) -> Result<Attempt, MeshError> {
@@ -640,7 +660,18 @@ fn attempt(
         boundary_triangles: boundary.global.len(),
         ..Default::default()
     };
-    let mut sys = seed_bubbles(boundary, &scaled, carrier, lattice, &mut rep)?;
+    let (mut sys, far) = match warm {
+        Some(start) => {
+            let (sys, counts, far) = warm::stage1(boundary, &scaled, carrier, start)?;
+            rep.stage1_bubbles = counts[1] + counts[2];
+            rep.warm = Some(counts);
+            (sys, Some(far))
+        }
+        None => (
+            seed_bubbles(boundary, &scaled, carrier, lattice, &mut rep)?,
+            None,
+        ),
+    };
     timings.stage1_s += t0.elapsed().as_secs_f64();
     job.opts
         .stage1_done(job.entity, sys.n_fixed, &sys.pos, &sys.d);
@@ -648,32 +679,44 @@ fn attempt(
     let relax = !job.opts.fast && lattice == Lattice::Fcc;
     if relax {
         let t2 = Instant::now();
-        rep.relax = Some(relax_bubbles(job, &mut sys)?);
+        rep.relax = Some(relax_bubbles(job, &mut sys, warm.is_some())?);
         timings.stage2_s += t2.elapsed().as_secs_f64();
+    }
+    if let Some(far) = far {
+        crate::face::warm::restore(&mut sys, far);
     }
 
     let t3 = Instant::now();
-    let n_fixed = boundary.n_fixed();
+    let n_keep = sys.n_fixed;
     let mut tm = TetMesh {
-        movable: (0..sys.pos.len()).map(|i| i >= n_fixed).collect(),
+        movable: (0..sys.pos.len()).map(|i| i >= n_keep).collect(),
         pos: std::mem::take(&mut sys.pos),
         d: std::mem::take(&mut sys.d),
         tets: Vec::new(),
     };
     if relax {
         let inside = |p: &P3| sys.carrier.contains_point(p);
-        rep.odt_iterations =
-            tet::odt::odt_smooth(&mut tm, &tet::odt::OdtParams::default(), inside).iterations;
+        // a warm start smooths the free nodes among the kept ones near
+        // them only
+        let params = tet::odt::OdtParams {
+            local: warm.is_some(),
+            iterations: match warm {
+                Some(_) => warm::ODT_ITERATIONS,
+                None => tet::odt::OdtParams::default().iterations,
+            },
+            ..Default::default()
+        };
+        rep.odt_iterations = tet::odt::odt_smooth(&mut tm, &params, inside).iterations;
     }
     rep.odt_s = t3.elapsed().as_secs_f64();
-    let first_qs = match connect_first(job, boundary, lattice, &mut tm, &mut rep, mesh)? {
+    let first_qs = match connect_first(job, boundary, lattice, n_keep, &mut tm, &mut rep, mesh)? {
         First::GiveUp(frac) => return Ok(Attempt::GiveUp(frac)),
         First::Connected(qs) => qs,
     };
     let t = Instant::now();
     if !job.opts.fast {
         let inside = |p: &P3| sys.carrier.contains_point(p);
-        remove_slivers(boundary, &mut tm, first_qs, inside, &mut rep, mesh)?;
+        remove_slivers(boundary, n_keep, &mut tm, first_qs, inside, &mut rep, mesh)?;
     }
     rep.sliver_s = t.elapsed().as_secs_f64();
     if !job.opts.fast {
@@ -733,15 +776,21 @@ fn seed_bubbles<'a>(
 fn relax_bubbles(
     job: &VolumeJob<'_>,
     sys: &mut crate::bubbles::system::System<'_, InVolume<'_>>,
+    warm: bool,
 ) -> Result<crate::bubbles::system::RelaxStats, MeshError> {
     // stage 1 is already a balanced FCC packing away from the boundary,
     // and the ODT smoothing after stage 2 finishes the job: more steps
     // cost time in proportion to the bubbles and did not improve the
-    // tetrahedra (measured on cases H, I with bench/run_3d.py)
-    let settings = crate::bubbles::system::RelaxSettings {
+    // tetrahedra (measured on cases H, I with bench/run_3d.py); a warm
+    // start only settles the footprint of a change (§4.8.2)
+    let mut settings = crate::bubbles::system::RelaxSettings {
         max_steps: job.opts.relax.max_steps.min(VOLUME_MAX_STEPS),
         ..job.opts.relax
     };
+    if warm {
+        settings.max_steps = settings.max_steps.min(warm::STAGE2_STEPS);
+        settings.tol = settings.tol.max(crate::remesh::warm::WARM_TOL);
+    }
     sys.relax(
         &settings,
         job.opts
@@ -761,11 +810,13 @@ enum First {
 
 /// The conforming Delaunay connection of `tm`'s nodes; after a BCC start,
 /// the test whether to give it up ([`BCC_MAX_BAD`], locked slivers,
-/// recovery removals). Sets `tm`'s tetrahedra and which nodes may move.
+/// recovery removals). Sets `tm`'s tetrahedra and which nodes may move
+/// (none of the first `n_keep`).
 fn connect_first(
     job: &VolumeJob<'_>,
     boundary: &Boundary,
     lattice: Lattice,
+    n_keep: usize,
     tm: &mut TetMesh,
     rep: &mut VolumeReport,
     mesh: &crate::mesh::Mesh,
@@ -801,7 +852,7 @@ fn connect_first(
     }
     rep.recovery_removed = conn.removed;
     tm.movable = (0..tm.pos.len())
-        .map(|i| i >= n_fixed && conn.kept[i])
+        .map(|i| i >= n_keep && conn.kept[i])
         .collect();
     tm.tets = conn.tets;
     Ok(First::Connected(first_qs))
@@ -810,9 +861,11 @@ fn connect_first(
 /// Sliver removal, then up to [`tet::steiner::STEINER_ROUNDS`] rounds of
 /// Steiner points for the slivers among fixed nodes, each followed by a
 /// re-connection and another sliver pass. `first_qs`: the objectives of
-/// the tetrahedra, if the caller has them.
+/// the tetrahedra, if the caller has them. The first `n_keep` nodes keep
+/// their indices and never move.
 fn remove_slivers(
     boundary: &Boundary,
+    n_keep: usize,
     tm: &mut TetMesh,
     first_qs: Option<Vec<f64>>,
     inside: impl Fn(&P3) -> bool,
@@ -855,13 +908,13 @@ fn remove_slivers(
         rep.steiner += extra.len();
         // the kept nodes, then the new ones; fixed nodes keep their
         // indices (the boundary triangles refer to them)
-        let (pos2, d2) = with_points(tm, n_fixed, extra);
+        let (pos2, d2) = with_points(tm, n_keep, extra);
         let conn = connect::connect_volume(&pos2, n_fixed, &boundary.local)
             .map_err(|e| connect_error(e, &boundary.global, mesh))?;
         rep.recovery_removed += conn.removed;
         *tm = TetMesh {
             movable: (0..pos2.len())
-                .map(|i| i >= n_fixed && conn.kept[i])
+                .map(|i| i >= n_keep && conn.kept[i])
                 .collect(),
             tets: conn.tets,
             pos: pos2,

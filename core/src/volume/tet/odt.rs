@@ -25,13 +25,26 @@ pub(crate) struct OdtParams {
     pub iterations: usize,
     /// Largest move of a node per iteration, in units of its spacing.
     pub max_step: f64,
+    /// Tetrahedralize only the free nodes and the fixed ones within
+    /// [`LOCAL_REACH`] spacings of them (a warm start, where most nodes
+    /// are kept): a free node's Delaunay tetrahedra are made of its
+    /// neighbours, so its target is the same, at the cost of the region
+    /// instead of the volume.
+    pub local: bool,
 }
+
+/// How far, in spacings of a free node, the fixed nodes that a local
+/// smoothing tetrahedralizes with it reach: beyond a free node's Delaunay
+/// neighbours (about 1.5 spacings) and what its moves (at most
+/// `max_step` each) bring near.
+pub(crate) const LOCAL_REACH: f64 = 3.0;
 
 impl Default for OdtParams {
     fn default() -> Self {
         OdtParams {
             iterations: 20,
             max_step: 0.25,
+            local: false,
         }
     }
 }
@@ -61,15 +74,45 @@ pub(crate) fn odt_smooth(
         pos, movable, d, ..
     } = mesh;
     let n = pos.len();
+    // the nodes tetrahedralized each iteration (all, or the free ones and
+    // the fixed ones near them)
+    let active: Vec<u32> = if params.local {
+        let free: Vec<P3> = (0..n).filter(|&i| movable[i]).map(|i| pos[i]).collect();
+        let dfree: Vec<f64> = (0..n).filter(|&i| movable[i]).map(|i| d[i]).collect();
+        let dmax = dfree.iter().cloned().fold(0.0f64, f64::max);
+        let g = crate::bubbles::grid::Grid::new(&free, (LOCAL_REACH * dmax).max(f64::MIN_POSITIVE));
+        (0..n as u32)
+            .filter(|&i| {
+                let i = i as usize;
+                let mut near = movable[i];
+                if !near {
+                    g.query(&pos[i], LOCAL_REACH * dmax, |j| {
+                        near |=
+                            (free[j as usize] - pos[i]).norm() <= LOCAL_REACH * dfree[j as usize];
+                    });
+                }
+                near
+            })
+            .collect()
+    } else {
+        (0..n as u32).collect()
+    };
     let mut done = 0;
     for _ in 0..params.iterations {
-        let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let coords: Vec<[f64; 3]> = active
+            .iter()
+            .map(|&i| {
+                let p = pos[i as usize];
+                [p.x, p.y, p.z]
+            })
+            .collect();
         let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
             break;
         };
         let mut acc = vec![nalgebra::Vector3::<f64>::zeros(); n];
         let mut wsum = vec![0.0f64; n];
         for t in &dt.tets {
+            let t = t.map(|k| active[k as usize]);
             let [a, b, c, e] = t.map(|k| pos[k as usize]);
             let Some(cc) = tet_circumcentre(&a, &b, &c, &e) else {
                 continue;
@@ -77,7 +120,7 @@ pub(crate) fn odt_smooth(
             let vol6 = crate::measure::tet_volume6(&a, &b, &c, &e);
             let dt_ = 0.25 * t.iter().map(|&k| d[k as usize]).sum::<f64>();
             let wt = vol6.abs() / (dt_ * dt_ * dt_);
-            for &k in t {
+            for &k in &t {
                 let k = k as usize;
                 if movable[k] {
                     acc[k] += cc.coords * wt;

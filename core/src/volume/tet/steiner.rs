@@ -96,20 +96,21 @@ pub(crate) fn steiner_points(
 }
 
 /// The nodes of `mesh` to re-connect after Steiner points: the first
-/// `n_fixed` (the boundary's, which keep their indices: the boundary
-/// triangles refer to them), the movable ones, then `extra` (position and
+/// `n_keep` (the boundary's, which keep their indices: the boundary
+/// triangles refer to them; then a warm start's kept bubbles, which stay
+/// where they were), the movable ones, then `extra` (position and
 /// spacing). The free nodes the boundary recovery removed are dropped.
 /// Returns positions and spacings.
 pub(crate) fn with_points(
     mesh: &TetMesh,
-    n_fixed: usize,
+    n_keep: usize,
     extra: Vec<(P3, f64)>,
 ) -> (Vec<P3>, Vec<f64>) {
     let (pos, d) = (&mesh.pos, &mesh.d);
     let mut pos2: Vec<P3> = Vec::with_capacity(pos.len() + extra.len());
     let mut d2: Vec<f64> = Vec::with_capacity(pos.len() + extra.len());
     for i in 0..pos.len() {
-        if i < n_fixed || mesh.movable[i] {
+        if i < n_keep || mesh.movable[i] {
             pos2.push(pos[i]);
             d2.push(d[i]);
         }
