@@ -7,11 +7,12 @@
  *
  * Conventions
  * -----------
- * - Handles (bm_model, bm_spacing, bm_mesh) are opaque; each is created by a
- *   bm_*_new / bm_*_from_* / bm_mesh_generate call and freed by its
- *   bm_*_free function (NULL is accepted and ignored). A mesh does not
- *   depend on the model or spacing it was made from. A handle must not be
- *   freed while another call (on another thread) is using it.
+ * - Handles (bm_model, bm_spacing, bm_mesh, bm_state) are opaque; each is
+ *   created by a bm_*_new / bm_*_from_* / bm_mesh_generate / bm_mesh_state /
+ *   bm_state_load call and freed by its bm_*_free function (NULL is
+ *   accepted and ignored). A mesh does not depend on the model or spacing
+ *   it was made from, nor a state on its mesh. A handle must not be freed
+ *   while another call (on another thread) is using it.
  * - Every fallible function returns a bm_result: BM_OK (0) or an error code.
  *   On error it sets the calling thread's last-error message (read it with
  *   bm_last_error_message() or bm_last_error()) and leaves its
@@ -31,7 +32,7 @@
  *   structs; the user pointers must stay valid until the model (or spacing)
  *   is freed.
  * - The library calls callbacks only from the thread that is inside
- *   bm_mesh_generate / bm_mesh_generate_ex / bm_mesh_step_file(_ex) (or
+ *   bm_mesh_generate(_ex) / bm_mesh_step_file(_ex) / bm_remesh_*(_ex) (or
  *   inside the bm_model_add_* call that checks them), synchronously, and
  *   never two at the same time. Spacing plugins are called the same way,
  *   from that thread. A model and a callback or plugin spacing are each
@@ -107,14 +108,19 @@ typedef enum bm_result {
   // STEP, truncated, a syntax error, an entity that cannot be converted
   // (the message names the file, the entity `#id TYPE` and the reason);
   // a spacing plugin that is not a loadable bubblemesh plugin; a
-  // malformed plugin configuration file.
+  // malformed plugin configuration file; a state file that is not one,
+  // of another version of the format, truncated or corrupted.
   BM_ERR_FORMAT = 13,
+  // A state (`bm_state`) cannot re-mesh the model: it was saved from
+  // another model (fewer than half its entities match). The message
+  // says how many matched and why the first did not.
+  BM_ERR_STATE = 14,
 } bm_result;
 
 // A finished mesh (opaque): nodes, line segments on edges, triangles on
 // faces, tetrahedra in volumes, each with the model entity it came from.
-// Independent of the model and spacing it was made from. Free with
-// `bm_mesh_free`.
+// Independent of the model and spacing it was made from (it keeps what
+// `bm_mesh_state` needs of them). Free with `bm_mesh_free`.
 typedef struct bm_mesh bm_mesh;
 
 // A model under construction (opaque). Create with `bm_model_new`, free
@@ -125,6 +131,14 @@ typedef struct bm_model bm_model;
 // `bm_spacing_from_callback`, `bm_spacing_from_plugin` or
 // `bm_spacing_from_plugin_config`; free with `bm_spacing_free`.
 typedef struct bm_spacing bm_spacing;
+
+// A saved packing (opaque): the bubbles of every edge, face and volume of
+// a finished run, with what identifies each entity, so that a run on a
+// changed model (or with a changed spacing) can start from them. Get one
+// from a mesh with `bm_mesh_state` or from a file with `bm_state_load`;
+// free with `bm_state_free`. Independent of the mesh, the model and the
+// spacing it came from.
+typedef struct bm_state bm_state;
 
 // Progress of a run: `phase` (a short name such as "relax"), the entity
 // being meshed, the step and the step limit. Return 0 to go on, non-zero
@@ -326,13 +340,26 @@ enum bm_result bm_mesh_node_params(const struct bm_mesh *mesh, double *uv, size_
 enum bm_result bm_mesh_nodes(const struct bm_mesh *mesh, double *xyz, size_t len);
 
 // The run's report as JSON (counts, timings per stage, per-face stage-2
-// statistics and energy history). With `buf` NULL, stores the length
+// statistics and energy history). A re-meshing's report has a `remesh`
+// section too, as the command line's `--report`: `summary` (`matching`:
+// the entities `matched` and `unmatched`, with why, and the old bubbles
+// left free and kept; the new nodes `kept` bit for bit, `moved`, `added`;
+// the old bubbles `removed`; with a box or sphere region,
+// `far_from_region` and `far_kept`), `stage2_steps_per_face`,
+// `stage2_steps_max`, `stage2_steps_total`. With `buf` NULL, stores the length
 // (without the NUL) in `*out_len` and returns `BM_OK`; otherwise `buf`
 // must hold the JSON and its NUL (`len` > length), else `BM_ERR_RANGE`.
 enum bm_result bm_mesh_report_json(const struct bm_mesh *mesh,
                                    char *buf,
                                    size_t len,
                                    size_t *out_len);
+
+// The state of the run that made `mesh` (a `bm_mesh_generate`,
+// `bm_mesh_step_file` or `bm_remesh_*` call): every edge, face and
+// volume of its model with the mesh's nodes on it as bubbles, each with
+// the spacing there as its diameter. The new state goes to `*out`; it
+// does not depend on the mesh.
+enum bm_result bm_mesh_state(const struct bm_mesh *mesh, struct bm_state **out);
 
 // Meshes the STEP file at `path` (ISO 10303-21, AP203/AP214/AP242 B-rep,
 // read by the same reader as the command line) with `spacing` up to
@@ -495,6 +522,69 @@ enum bm_result bm_model_set_name(struct bm_model *model, int dim, uint32_t id, c
 // default step limit, no progress callback.
 enum bm_result bm_options_init(struct bm_options *options);
 
+// Re-meshes `model` (thesis §4.8) with `spacing` up to dimension `dim`
+// (as `bm_mesh_generate`), starting from `state`, the packing of an
+// earlier run (`bm_mesh_state`, `bm_state_load`) on this model before a
+// change (a hole moved, a part made longer, a spacing refined). The new
+// mesh goes to `*out`.
+//
+// Each edge, face and volume of `model` that matches the state's entity
+// of the same dimension and id (same name and type of geometry, its
+// length or boundary length within 25 %, its centroid within 25 % of its
+// size) starts from the old bubbles; the others are meshed from scratch.
+// `region` NULL is a continuous re-meshing: the old bubbles the change
+// disturbs (moved geometry, a changed spacing, entities that no longer
+// match), and those within 3 spacings of them, move; the others keep
+// their coordinates bit for bit. `region` "box:x0,y0,z0,x1,y1,z1",
+// "sphere:x,y,z,r" or "faces:3,7" is a local re-meshing: only the old
+// bubbles in the region or within 2 spacings of it (on the listed faces
+// and the edges only they use) move, the others are kept bit for bit.
+// Stage 2 then runs short. `bm_mesh_report_json` tells what was matched,
+// kept, moved, added and removed.
+//
+// A state of another model (fewer than half its entities match) gives
+// `BM_ERR_STATE`; a region that does not parse, that selects no bubble,
+// or that names a face the model lacks, `BM_ERR_RANGE`. A re-meshing is
+// not available with `fast` (`bm_remesh_generate_ex`: `BM_ERR_UNSUPPORTED`).
+enum bm_result bm_remesh_generate(const struct bm_model *model,
+                                  const struct bm_spacing *spacing,
+                                  const struct bm_state *state,
+                                  int dim,
+                                  const char *region,
+                                  struct bm_mesh **out);
+
+// `bm_remesh_generate` with options (dimension, step limit, a progress
+// callback that can cancel; `fast` must be 0).
+enum bm_result bm_remesh_generate_ex(const struct bm_model *model,
+                                     const struct bm_spacing *spacing,
+                                     const struct bm_state *state,
+                                     const struct bm_options *options,
+                                     const char *region,
+                                     struct bm_mesh **out);
+
+// Re-meshes the STEP file at `path` from `state` (see
+// `bm_remesh_generate`), with the defaults and errors of
+// `bm_mesh_step_file`: `spacing` NULL is 1/40 of the new model's
+// bounding-box diagonal, `dim` -1 the faces of a file with solids. The
+// file's entities are matched by their ids in the reader's order, so the
+// state of an earlier version of the part (re-exported after a change)
+// warm-starts the entities the change left alone.
+enum bm_result bm_remesh_step_file(const char *path,
+                                   const struct bm_spacing *spacing,
+                                   const struct bm_state *state,
+                                   int dim,
+                                   const char *region,
+                                   struct bm_mesh **out);
+
+// `bm_remesh_step_file` with options (dimension, step limit, a progress
+// callback that can cancel; `fast` must be 0).
+enum bm_result bm_remesh_step_file_ex(const char *path,
+                                      const struct bm_spacing *spacing,
+                                      const struct bm_state *state,
+                                      const struct bm_options *options,
+                                      const char *region,
+                                      struct bm_mesh **out);
+
 // The name of a result code, e.g. "BM_ERR_CALLBACK" (a static string).
 const char *bm_result_name(enum bm_result code);
 
@@ -538,6 +628,24 @@ enum bm_result bm_spacing_from_plugin(const char *path,
 // their minimum. Errors as `bm_spacing_from_plugin`; an unreadable file
 // is `BM_ERR_IO`, a malformed one `BM_ERR_FORMAT`.
 enum bm_result bm_spacing_from_plugin_config(const char *path, struct bm_spacing **out);
+
+// Frees a state (NULL: nothing).
+void bm_state_free(struct bm_state *state);
+
+// Reads the state file at `path` (written by `bm_state_save` or the
+// command line's `--save-state`); the new state goes to `*out`. A missing
+// or unreadable file gives `BM_ERR_IO`; a file that is not a state, of
+// another version of the format, truncated or corrupted (its checksum)
+// gives `BM_ERR_FORMAT`. Either message names the file and the reason.
+enum bm_result bm_state_load(const char *path, struct bm_state **out);
+
+// Writes `state` to the file `path` (UTF-8) in the state format of the
+// command line's `--save-state` (`bubblemesh-state` version 1,
+// docs/state-format.md; `bubblemesh remesh` reads it). The file is
+// written whole or not at all: a temporary file in its directory renamed
+// over it once complete (an existing file is left untouched on error).
+// A file that cannot be written gives `BM_ERR_IO`, naming it.
+enum bm_result bm_state_save(const struct bm_state *state, const char *path);
 
 // The library version, e.g. "0.1.0" (a static string).
 const char *bm_version(void);

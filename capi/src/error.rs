@@ -56,8 +56,13 @@ pub enum bm_result {
     /// STEP, truncated, a syntax error, an entity that cannot be converted
     /// (the message names the file, the entity `#id TYPE` and the reason);
     /// a spacing plugin that is not a loadable bubblemesh plugin; a
-    /// malformed plugin configuration file.
+    /// malformed plugin configuration file; a state file that is not one,
+    /// of another version of the format, truncated or corrupted.
     BM_ERR_FORMAT = 13,
+    /// A state (`bm_state`) cannot re-mesh the model: it was saved from
+    /// another model (fewer than half its entities match). The message
+    /// says how many matched and why the first did not.
+    BM_ERR_STATE = 14,
 }
 
 use bm_result::*;
@@ -79,6 +84,7 @@ impl bm_result {
             BM_ERR_CANCELLED => "BM_ERR_CANCELLED",
             BM_ERR_PANIC => "BM_ERR_PANIC",
             BM_ERR_FORMAT => "BM_ERR_FORMAT",
+            BM_ERR_STATE => "BM_ERR_STATE",
         }
     }
 }

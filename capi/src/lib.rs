@@ -23,6 +23,13 @@
 //! entry point with the error (see [`geometry`]), which returns
 //! `BM_ERR_CALLBACK` with a message naming the callback, the entity and
 //! the parameters.
+//!
+//! Re-meshing (thesis §4.8, the command line's `mesh --save-state` and
+//! `remesh`): `bm_mesh_state` gives the packing of a finished run as a
+//! `bm_state` ([`state`]), saved to and loaded from the command line's
+//! state file; `bm_remesh_generate` and `bm_remesh_step_file` mesh a
+//! changed model starting from it, keeping the nodes the change left
+//! alone bit for bit.
 
 #![allow(clippy::missing_safety_doc)]
 #![warn(missing_docs)]
@@ -32,6 +39,7 @@ pub mod geometry;
 pub mod mesh;
 pub mod model;
 pub mod spacing;
+pub mod state;
 
 use std::ffi::{c_char, CStr};
 
@@ -141,6 +149,7 @@ pub extern "C" fn bm_result_name(code: bm_result) -> *const c_char {
         bm_result::BM_ERR_CANCELLED => "BM_ERR_CANCELLED\0",
         bm_result::BM_ERR_PANIC => "BM_ERR_PANIC\0",
         bm_result::BM_ERR_FORMAT => "BM_ERR_FORMAT\0",
+        bm_result::BM_ERR_STATE => "BM_ERR_STATE\0",
     };
     debug_assert_eq!(&s[..s.len() - 1], code.name());
     s.as_ptr() as *const c_char

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use bubblemesh_core::engine::{Event, MeshError, Options, Report};
 use bubblemesh_core::model::EntityRef;
+use bubblemesh_core::remesh::{self, summary, Matching, PlanError, Region, WarmStart};
 use bubblemesh_core::spacing::Constant;
 use bubblemesh_core::{mesh_model, Mesh, Model};
 
@@ -16,12 +17,13 @@ use crate::error::{
 use crate::geometry::UserPtr;
 use crate::model::{bm_model, ModelObj};
 use crate::spacing::{bm_spacing, spacing_obj, Ready};
+use crate::state::{bm_state, state_obj, Seed, StateObj};
 use crate::{free_handle, into_handle, need, object, put, utf8, Object};
 
 /// A finished mesh (opaque): nodes, line segments on edges, triangles on
 /// faces, tetrahedra in volumes, each with the model entity it came from.
-/// Independent of the model and spacing it was made from. Free with
-/// `bm_mesh_free`.
+/// Independent of the model and spacing it was made from (it keeps what
+/// `bm_mesh_state` needs of them). Free with `bm_mesh_free`.
 #[allow(non_camel_case_types)]
 pub struct bm_mesh {
     _private: [u8; 0],
@@ -90,8 +92,13 @@ impl bm_options {
 #[repr(C)]
 pub(crate) struct MeshObj {
     magic: u64,
-    mesh: Mesh,
+    pub mesh: Mesh,
     report: Report,
+    /// What `bm_mesh_state` needs of the model and the spacing.
+    pub seed: Seed,
+    /// A re-meshing's section of the report (what was matched, kept,
+    /// moved, added, removed; the stage-2 steps).
+    remesh: Option<serde_json::Value>,
 }
 
 impl Object for MeshObj {
@@ -99,7 +106,7 @@ impl Object for MeshObj {
     const KIND: &'static str = "bm_mesh";
 }
 
-unsafe fn mesh_obj<'a>(p: *const bm_mesh) -> Result<&'a MeshObj> {
+pub(crate) unsafe fn mesh_obj<'a>(p: *const bm_mesh) -> Result<&'a MeshObj> {
     unsafe { object::<MeshObj>(p as *const c_void, "mesh") }
 }
 
@@ -201,50 +208,177 @@ fn engine_options(opts: &bm_options, dim: Option<u8>) -> Options {
     o
 }
 
-/// Meshes `model` with the spacing `ready` makes: inside the callback
-/// scope, with the unwind of a failing callback caught here (so locks held
-/// by the caller are released normally). A plugin failure is the cause of
-/// any engine error and fails the run even when meshing succeeded (a
-/// minimum can hide the NaN a failed plugin answers).
+/// What a state records about a run besides its bubbles: the spacing and
+/// the input, as given.
+struct Label {
+    spacing: String,
+    source: String,
+}
+
+/// A re-meshing's inputs: the state it starts from and the region of a
+/// local re-meshing (§4.8.1; none: continuous re-meshing, §4.8.2).
+struct Warm<'a> {
+    state: &'a StateObj,
+    region: Option<Region>,
+}
+
+/// The code and message of a state that cannot re-mesh a model: one of
+/// another model is `BM_ERR_STATE`; a region that selects nothing or names
+/// a face the model lacks is the region argument's fault (`BM_ERR_RANGE`).
+fn plan_error(e: PlanError, w: &Warm<'_>, prefix: &str) -> Error {
+    #[allow(unreachable_patterns)]
+    let code = match e {
+        PlanError::AnotherModel { .. } => bm_result::BM_ERR_STATE,
+        PlanError::EmptyRegion(_) | PlanError::NoSuchFace { .. } => bm_result::BM_ERR_RANGE,
+        _ => bm_result::BM_ERR_STATE,
+    };
+    Error::new(
+        code,
+        format!(
+            "{prefix}cannot re-mesh from the state ({}; made from '{}' with spacing '{}'): {e}",
+            w.state.origin, w.state.state.source, w.state.state.spacing
+        ),
+    )
+}
+
+/// The report's `remesh` section, as the command line's: the summary of
+/// what was matched, kept, moved, added and removed, and the stage-2 steps
+/// of each face.
+fn remesh_section(
+    w: &Warm<'_>,
+    matching: Matching,
+    warm: &WarmStart,
+    mesh: &Mesh,
+    report: &Report,
+) -> serde_json::Value {
+    let s = summary::summarise(&w.state.state, matching, warm, mesh, w.region.as_ref());
+    let steps: Vec<usize> = report
+        .faces
+        .iter()
+        .filter_map(|f| f.relax.as_ref().map(|r| r.steps))
+        .collect();
+    serde_json::json!({
+        "summary": s,
+        "stage2_steps_per_face": steps,
+        "stage2_steps_max": steps.iter().copied().max().unwrap_or(0),
+        "stage2_steps_total": steps.iter().sum::<usize>(),
+    })
+}
+
+/// Meshes `model` with the spacing `ready` makes (from the state of `warm`
+/// when given): inside the callback scope, with the unwind of a failing
+/// callback caught here (so locks held by the caller are released
+/// normally). Matching the state to the model and taking the new state's
+/// records evaluate the geometry and the spacing too, so they run here. A
+/// plugin failure is the cause of any error and fails the run even when
+/// meshing succeeded (a minimum can hide the NaN a failed plugin answers).
 fn run<'s>(
     model: &Model,
     ready: impl FnOnce() -> Result<Ready<'s>>,
     o: &Options,
     prefix: &str,
+    label: &Label,
+    warm: Option<&Warm<'_>>,
 ) -> Result<MeshObj> {
     let r = in_callback_scope(|| {
-        catch_unwind(AssertUnwindSafe(|| -> Result<(Mesh, Report)> {
+        catch_unwind(AssertUnwindSafe(|| -> Result<MeshObj> {
             let spacing = ready()?;
-            let meshed = mesh_model(model, spacing.spacing(), o);
+            let r = (|| {
+                let mut o = o.clone();
+                let planned = match warm {
+                    Some(w) => {
+                        let (start, matching) = remesh::plan(
+                            &w.state.state,
+                            model,
+                            spacing.spacing(),
+                            w.region.as_ref(),
+                        )
+                        .map_err(|e| plan_error(e, w, prefix))?;
+                        let start = Arc::new(start);
+                        o.warm = Some(start.clone());
+                        Some((w, start, matching))
+                    }
+                    None => None,
+                };
+                let (mesh, report) = mesh_model(model, spacing.spacing(), &o)
+                    .map_err(|e| Error::new(code_of(&e), format!("{prefix}{e}")))?;
+                let seed = Seed::new(
+                    model,
+                    &mesh,
+                    spacing.spacing(),
+                    &label.spacing,
+                    &label.source,
+                );
+                let remesh = planned.map(|(w, start, matching)| {
+                    remesh_section(w, matching, &start, &mesh, &report)
+                });
+                Ok(MeshObj {
+                    magic: MeshObj::MAGIC,
+                    mesh,
+                    report,
+                    seed,
+                    remesh,
+                })
+            })();
             if let Some(f) = spacing.failure() {
                 return Err(Error::new(
                     bm_result::BM_ERR_SPACING,
                     format!("{prefix}{f}"),
                 ));
             }
-            meshed.map_err(|e| Error::new(code_of(&e), format!("{prefix}{e}")))
+            r
         }))
     });
-    let (mesh, report) = match r {
-        Err(payload) => return Err(from_unwind(payload)),
-        Ok(r) => r?,
-    };
-    Ok(MeshObj {
-        magic: MeshObj::MAGIC,
-        mesh,
-        report,
-    })
+    match r {
+        Err(payload) => Err(from_unwind(payload)),
+        Ok(r) => r,
+    }
+}
+
+/// The region argument of a re-meshing: NULL is none.
+unsafe fn region_arg(region: *const c_char) -> Result<Option<Region>> {
+    if region.is_null() {
+        return Ok(None);
+    }
+    let text = unsafe { utf8(region, "region")? };
+    Region::parse(text)
+        .map(Some)
+        .map_err(|e| Error::range(format!("argument 'region' {e}")))
+}
+
+/// Checks the options of a re-meshing: no `fast` (a warm start is a short
+/// stage 2, as the command line's `remesh` refuses `--fast`).
+fn check_warm_options(opts: &bm_options) -> Result<()> {
+    if opts.fast != 0 {
+        return Err(Error::new(
+            bm_result::BM_ERR_UNSUPPORTED,
+            "fast (stage 1 only) is not supported by a re-meshing: a warm start is a short \
+             stage 2",
+        ));
+    }
+    Ok(())
 }
 
 fn generate(
     model: *const bm_model,
     spacing: *const bm_spacing,
     opts: bm_options,
+    warm: Option<(*const bm_state, *const c_char)>,
     out: *mut *mut bm_mesh,
 ) -> Result<()> {
     let m = unsafe { object::<ModelObj>(model as *const c_void, "model")? };
     let s = unsafe { spacing_obj(spacing)? };
+    let warm = match warm {
+        Some((state, region)) => Some(Warm {
+            state: unsafe { state_obj(state)? },
+            region: unsafe { region_arg(region)? },
+        }),
+        None => None,
+    };
     need(out, "out")?;
+    if warm.is_some() {
+        check_warm_options(&opts)?;
+    }
     if !(-1..=3).contains(&opts.dim) {
         return Err(Error::range(format!(
             "dim = {} must be -1 (the model's), 0, 1, 2 or 3",
@@ -255,7 +389,11 @@ fn generate(
     let _claim = s.claim()?;
     check_dim(opts.dim, &model, "the model's highest dimension")?;
     let o = engine_options(&opts, (opts.dim >= 0).then_some(opts.dim as u8));
-    let obj = run(&model, || s.ready(&model), &o, "")?;
+    let label = Label {
+        spacing: s.describe(),
+        source: "bm_model".into(),
+    };
+    let obj = run(&model, || s.ready(&model), &o, "", &label, warm.as_ref())?;
     unsafe { put(out, "out", into_handle(obj)) }
 }
 
@@ -273,7 +411,7 @@ pub unsafe extern "C" fn bm_mesh_generate(
     out: *mut *mut bm_mesh,
 ) -> bm_result {
     guard("bm_mesh_generate", || {
-        generate(model, spacing, bm_options::plain(dim, fast), out)
+        generate(model, spacing, bm_options::plain(dim, fast), None, out)
     })
 }
 
@@ -290,7 +428,7 @@ pub unsafe extern "C" fn bm_mesh_generate_ex(
         if options.is_null() {
             return Err(Error::null("options"));
         }
-        generate(model, spacing, unsafe { *options }, out)
+        generate(model, spacing, unsafe { *options }, None, out)
     })
 }
 
@@ -319,6 +457,7 @@ fn step_file(
     path: *const c_char,
     spacing: *const bm_spacing,
     opts: bm_options,
+    warm: Option<(*const bm_state, *const c_char)>,
     out: *mut *mut bm_mesh,
 ) -> Result<()> {
     let path = unsafe { utf8(path, "path")? };
@@ -327,7 +466,17 @@ fn step_file(
     } else {
         Some(unsafe { spacing_obj(spacing)? })
     };
+    let warm = match warm {
+        Some((state, region)) => Some(Warm {
+            state: unsafe { state_obj(state)? },
+            region: unsafe { region_arg(region)? },
+        }),
+        None => None,
+    };
     need(out, "out")?;
+    if warm.is_some() {
+        check_warm_options(&opts)?;
+    }
     if !(-1..=3).contains(&opts.dim) {
         return Err(Error::range(format!(
             "dim = {} must be -1 (2 for a file with solids, else the file's highest), 0, 1, \
@@ -350,8 +499,16 @@ fn step_file(
         model.dim().min(2)
     };
     let o = engine_options(&opts, Some(dim));
+    let prefix = format!("{path}: ");
+    let warm = warm.as_ref();
     let obj = match s {
-        Some(s) => run(&model, || s.ready(&model), &o, &format!("{path}: "))?,
+        Some(s) => {
+            let label = Label {
+                spacing: s.describe(),
+                source: path.to_string(),
+            };
+            run(&model, || s.ready(&model), &o, &prefix, &label, warm)?
+        }
         None => {
             // the command line's default spacing: 1/40 of the bounding-box
             // diagonal
@@ -362,11 +519,17 @@ fn step_file(
                 )));
             }
             let d = diag / 40.0;
+            let label = Label {
+                spacing: format!("{d}"),
+                source: path.to_string(),
+            };
             run(
                 &model,
                 || Ok(Ready::owned(Box::new(Constant(d)))),
                 &o,
-                &format!("{path}: "),
+                &prefix,
+                &label,
+                warm,
             )?
         }
     };
@@ -396,7 +559,7 @@ pub unsafe extern "C" fn bm_mesh_step_file(
     out: *mut *mut bm_mesh,
 ) -> bm_result {
     guard("bm_mesh_step_file", || {
-        step_file(path, spacing, bm_options::plain(dim, fast), out)
+        step_file(path, spacing, bm_options::plain(dim, fast), None, out)
     })
 }
 
@@ -413,7 +576,128 @@ pub unsafe extern "C" fn bm_mesh_step_file_ex(
         if options.is_null() {
             return Err(Error::null("options"));
         }
-        step_file(path, spacing, unsafe { *options }, out)
+        step_file(path, spacing, unsafe { *options }, None, out)
+    })
+}
+
+/// Re-meshes `model` (thesis §4.8) with `spacing` up to dimension `dim`
+/// (as `bm_mesh_generate`), starting from `state`, the packing of an
+/// earlier run (`bm_mesh_state`, `bm_state_load`) on this model before a
+/// change (a hole moved, a part made longer, a spacing refined). The new
+/// mesh goes to `*out`.
+///
+/// Each edge, face and volume of `model` that matches the state's entity
+/// of the same dimension and id (same name and type of geometry, its
+/// length or boundary length within 25 %, its centroid within 25 % of its
+/// size) starts from the old bubbles; the others are meshed from scratch.
+/// `region` NULL is a continuous re-meshing: the old bubbles the change
+/// disturbs (moved geometry, a changed spacing, entities that no longer
+/// match), and those within 3 spacings of them, move; the others keep
+/// their coordinates bit for bit. `region` "box:x0,y0,z0,x1,y1,z1",
+/// "sphere:x,y,z,r" or "faces:3,7" is a local re-meshing: only the old
+/// bubbles in the region or within 2 spacings of it (on the listed faces
+/// and the edges only they use) move, the others are kept bit for bit.
+/// Stage 2 then runs short. `bm_mesh_report_json` tells what was matched,
+/// kept, moved, added and removed.
+///
+/// A state of another model (fewer than half its entities match) gives
+/// `BM_ERR_STATE`; a region that does not parse, that selects no bubble,
+/// or that names a face the model lacks, `BM_ERR_RANGE`. A re-meshing is
+/// not available with `fast` (`bm_remesh_generate_ex`: `BM_ERR_UNSUPPORTED`).
+#[no_mangle]
+pub unsafe extern "C" fn bm_remesh_generate(
+    model: *const bm_model,
+    spacing: *const bm_spacing,
+    state: *const bm_state,
+    dim: c_int,
+    region: *const c_char,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_remesh_generate", || {
+        generate(
+            model,
+            spacing,
+            bm_options::plain(dim, 0),
+            Some((state, region)),
+            out,
+        )
+    })
+}
+
+/// `bm_remesh_generate` with options (dimension, step limit, a progress
+/// callback that can cancel; `fast` must be 0).
+#[no_mangle]
+pub unsafe extern "C" fn bm_remesh_generate_ex(
+    model: *const bm_model,
+    spacing: *const bm_spacing,
+    state: *const bm_state,
+    options: *const bm_options,
+    region: *const c_char,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_remesh_generate_ex", || {
+        if options.is_null() {
+            return Err(Error::null("options"));
+        }
+        generate(
+            model,
+            spacing,
+            unsafe { *options },
+            Some((state, region)),
+            out,
+        )
+    })
+}
+
+/// Re-meshes the STEP file at `path` from `state` (see
+/// `bm_remesh_generate`), with the defaults and errors of
+/// `bm_mesh_step_file`: `spacing` NULL is 1/40 of the new model's
+/// bounding-box diagonal, `dim` -1 the faces of a file with solids. The
+/// file's entities are matched by their ids in the reader's order, so the
+/// state of an earlier version of the part (re-exported after a change)
+/// warm-starts the entities the change left alone.
+#[no_mangle]
+pub unsafe extern "C" fn bm_remesh_step_file(
+    path: *const c_char,
+    spacing: *const bm_spacing,
+    state: *const bm_state,
+    dim: c_int,
+    region: *const c_char,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_remesh_step_file", || {
+        step_file(
+            path,
+            spacing,
+            bm_options::plain(dim, 0),
+            Some((state, region)),
+            out,
+        )
+    })
+}
+
+/// `bm_remesh_step_file` with options (dimension, step limit, a progress
+/// callback that can cancel; `fast` must be 0).
+#[no_mangle]
+pub unsafe extern "C" fn bm_remesh_step_file_ex(
+    path: *const c_char,
+    spacing: *const bm_spacing,
+    state: *const bm_state,
+    options: *const bm_options,
+    region: *const c_char,
+    out: *mut *mut bm_mesh,
+) -> bm_result {
+    guard("bm_remesh_step_file_ex", || {
+        if options.is_null() {
+            return Err(Error::null("options"));
+        }
+        step_file(
+            path,
+            spacing,
+            unsafe { *options },
+            Some((state, region)),
+            out,
+        )
     })
 }
 
@@ -720,7 +1004,13 @@ pub unsafe extern "C" fn bm_mesh_write(mesh: *const bm_mesh, path: *const c_char
 }
 
 /// The run's report as JSON (counts, timings per stage, per-face stage-2
-/// statistics and energy history). With `buf` NULL, stores the length
+/// statistics and energy history). A re-meshing's report has a `remesh`
+/// section too, as the command line's `--report`: `summary` (`matching`:
+/// the entities `matched` and `unmatched`, with why, and the old bubbles
+/// left free and kept; the new nodes `kept` bit for bit, `moved`, `added`;
+/// the old bubbles `removed`; with a box or sphere region,
+/// `far_from_region` and `far_kept`), `stage2_steps_per_face`,
+/// `stage2_steps_max`, `stage2_steps_total`. With `buf` NULL, stores the length
 /// (without the NUL) in `*out_len` and returns `BM_OK`; otherwise `buf`
 /// must hold the JSON and its NUL (`len` > length), else `BM_ERR_RANGE`.
 #[no_mangle]
@@ -733,12 +1023,17 @@ pub unsafe extern "C" fn bm_mesh_report_json(
     guard("bm_mesh_report_json", || unsafe {
         let m = mesh_obj(mesh)?;
         need(out_len, "out_len")?;
-        let json = serde_json::to_string(&m.report).map_err(|e| {
+        let serialize = |e: serde_json::Error| {
             Error::new(
                 bm_result::BM_ERR_PANIC,
                 format!("cannot serialize the report: {e}"),
             )
-        })?;
+        };
+        let mut value = serde_json::to_value(&m.report).map_err(serialize)?;
+        if let (Some(section), Some(obj)) = (&m.remesh, value.as_object_mut()) {
+            obj.insert("remesh".into(), section.clone());
+        }
+        let json = serde_json::to_string(&value).map_err(serialize)?;
         if !buf.is_null() {
             if len <= json.len() {
                 return Err(Error::range(format!(

@@ -202,6 +202,26 @@ impl SpacingObj {
         })
     }
 
+    /// The spacing as a state records it (`bm_mesh_state`): an
+    /// expression's text, "callback", or the plugins' paths and arguments.
+    pub fn describe(&self) -> String {
+        match &self.kind {
+            Kind::Expr(e) => e.text().to_string(),
+            Kind::Callback(_) => "callback".to_string(),
+            Kind::Plugins(p) => p
+                .iter()
+                .map(|src| {
+                    let mut t = format!("plugin:{}", src.plugin.path().display());
+                    for (k, v) in &src.args {
+                        t.push_str(&format!(" {k}={v}"));
+                    }
+                    t
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+    }
+
     /// For a callback or plugin spacing, the right to call it
     /// (`BM_ERR_BUSY` when another meshing call uses it); nothing to hold
     /// for an expression.

@@ -15,6 +15,7 @@ use bubblemesh_capi::geometry::*;
 use bubblemesh_capi::mesh::*;
 use bubblemesh_capi::model::*;
 use bubblemesh_capi::spacing::*;
+use bubblemesh_capi::state::*;
 use bubblemesh_capi::*;
 
 fn last_error() -> String {
@@ -900,4 +901,176 @@ fn step_file_defaults_follow_the_command_line() {
         "cancelled by the progress callback",
     );
     assert!(mesh.is_null());
+}
+
+fn cstring(p: &std::path::Path) -> std::ffi::CString {
+    std::ffi::CString::new(p.to_str().unwrap()).unwrap()
+}
+
+/// A state written as the command line writes it (`mesh --save-state`:
+/// `remesh::state_of` of the model it read, its mesh and spacing) loads
+/// through the C ABI and re-meshes the same STEP file from
+/// `bm_remesh_step_file`; the report's `remesh` section has the CLI's
+/// fields, and every old node outside the box and its band is kept.
+#[test]
+fn a_command_line_state_remeshes_a_step_file() {
+    use bubblemesh_core::remesh;
+    use bubblemesh_core::spacing::Constant;
+    let step = concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/step/cube.step");
+    let model = bubblemesh_truck::read_step(std::path::Path::new(step))
+        .unwrap()
+        .model;
+    let d = 0.1;
+    let s = Constant(d);
+    let opts = bubblemesh_core::Options {
+        dim: Some(2),
+        ..Default::default()
+    };
+    let (m0, _) = bubblemesh_core::mesh_model(&model, &s, &opts).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("cli.state");
+    std::fs::write(
+        &file,
+        remesh::state_of(&model, &m0, &s, "0.1", step).to_bytes(),
+    )
+    .unwrap();
+    unsafe {
+        let mut state = null_mut();
+        ok(bm_state_load(cstring(&file).as_ptr(), &mut state));
+        let sp = expr("0.1");
+        let path = std::ffi::CString::new(step).unwrap();
+        let region = c"box:0.6,0.6,0.6,1.2,1.2,1.2";
+        let mut mesh = null_mut();
+        ok(bm_remesh_step_file(
+            path.as_ptr(),
+            sp,
+            state,
+            -1,
+            region.as_ptr(),
+            &mut mesh,
+        ));
+        let a = arrays(mesh);
+        let now: std::collections::HashSet<[u64; 3]> = a
+            .xyz
+            .iter()
+            .map(|p| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()])
+            .collect();
+        let dist = |p: &bubblemesh_core::P3| {
+            let q = [p.x, p.y, p.z].map(|c| (0.6 - c).max(0.0));
+            (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
+        };
+        let far: Vec<_> = m0.nodes.iter().filter(|n| dist(&n.pos) > 2.0 * d).collect();
+        assert!(far.len() > m0.nodes.len() / 2);
+        assert!(far.iter().all(|n| now.contains(&[
+            n.pos.x.to_bits(),
+            n.pos.y.to_bits(),
+            n.pos.z.to_bits()
+        ])));
+        let mut len = 0;
+        ok(bm_mesh_report_json(mesh, null_mut(), 0, &mut len));
+        let mut text = vec![0u8; len + 1];
+        ok(bm_mesh_report_json(
+            mesh,
+            text.as_mut_ptr() as *mut c_char,
+            len + 1,
+            &mut len,
+        ));
+        let v: serde_json::Value = serde_json::from_slice(&text[..len]).unwrap();
+        let r = &v["remesh"];
+        let summary = &r["summary"];
+        assert_eq!(summary["matching"]["matched"].as_array().unwrap().len(), 19);
+        assert_eq!(summary["far_from_region"], summary["far_kept"]);
+        assert!(summary["kept"].as_u64().unwrap() as usize >= far.len());
+        for key in ["moved", "added", "removed"] {
+            assert!(summary[key].is_u64(), "{key} missing: {summary}");
+        }
+        assert!(r["stage2_steps_max"].as_u64().unwrap() > 0);
+        assert_eq!(
+            r["stage2_steps_per_face"].as_array().unwrap().len(),
+            6,
+            "{r}"
+        );
+        // the engine's report is still there, as for a run from scratch
+        assert_eq!(v["triangles"].as_u64(), Some(a.tris.len() as u64));
+        bm_mesh_free(mesh);
+        bm_spacing_free(sp);
+        bm_state_free(state);
+    }
+}
+
+/// `bm_state_save` replaces an existing file whole, leaves nothing behind
+/// when it cannot write, and a state records the spacing it was made with
+/// (a callback spacing as "callback"); BM_ERR_STATE has its name.
+#[test]
+fn states_save_whole_and_record_their_spacing() {
+    unsafe extern "C" fn d(
+        _u: *mut c_void,
+        _x: f64,
+        _y: f64,
+        _z: f64,
+        _dim: c_int,
+        _id: u32,
+        _a: f64,
+        _b: f64,
+        out: *mut f64,
+    ) -> c_int {
+        *out = 0.2;
+        0
+    }
+    unsafe {
+        assert_eq!(
+            CStr::from_ptr(bm_result_name(BM_ERR_STATE)).to_str(),
+            Ok("BM_ERR_STATE")
+        );
+        let m = unit_square();
+        let mut s = null_mut();
+        ok(bm_spacing_from_callback(Some(d), null_mut(), &mut s));
+        let mut mesh = null_mut();
+        ok(bm_mesh_generate(m, s, -1, 0, &mut mesh));
+        let mut state = null_mut();
+        ok(bm_mesh_state(mesh, &mut state));
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("s.state");
+        std::fs::write(&file, b"old contents").unwrap();
+        ok(bm_state_save(state, cstring(&file).as_ptr()));
+        let st =
+            bubblemesh_core::remesh::State::from_bytes(&std::fs::read(&file).unwrap()).unwrap();
+        assert_eq!(st.spacing, "callback");
+        assert_eq!(st.dim, 2);
+        // the unit square's 4 edges and face, each with bubbles
+        assert_eq!(st.entities.len(), 5);
+        assert!(st.entities.iter().all(|e| !e.bubbles.is_empty()));
+        // a directory in the way: refused, the directory left alone, no
+        // temporary file left in the parent
+        let sub = dir.path().join("sub.state");
+        std::fs::create_dir(&sub).unwrap();
+        fails(
+            bm_state_save(state, cstring(&sub).as_ptr()),
+            BM_ERR_IO,
+            "sub.state",
+        );
+        assert!(sub.is_dir());
+        let mut names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["s.state", "sub.state"]);
+        // a directory is not a state file either
+        let mut none = null_mut();
+        fails(
+            bm_state_load(cstring(&sub).as_ptr(), &mut none),
+            BM_ERR_IO,
+            "sub.state",
+        );
+        assert!(none.is_null());
+        // freeing a handle of another type through bm_state_free is ignored
+        bm_state_free(mesh as *mut bm_state);
+        bm_state_free(state);
+        let mut n = 0;
+        ok(bm_mesh_node_count(mesh, &mut n));
+        bm_mesh_free(mesh);
+        bm_spacing_free(s);
+        bm_model_free(m);
+    }
 }

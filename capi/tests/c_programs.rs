@@ -298,6 +298,46 @@ fn plugin_spacing_under_valgrind() {
     plugin_spacing(How::Valgrind);
 }
 
+/// Re-meshing: the plate's state saved, loaded and re-meshed after its
+/// hole moved (locally in a sphere, and continuously), cube.step re-meshed
+/// in a corner box; far nodes kept bit for bit, the report's remesh
+/// section; bad state files, a state of another model and bad regions
+/// refused. Coarser under valgrind (same checks).
+fn remesh(how: How) -> Option<tempfile::TempDir> {
+    run_c(
+        "remesh",
+        how,
+        |d| {
+            let mut a: Vec<std::ffi::OsString> = vec![fixtures().into(), d.into()];
+            if how == How::Valgrind {
+                a.extend(os(&["0.08", "0.15"]));
+            }
+            a
+        },
+        PASSED,
+    )
+}
+
+#[test]
+fn remesh_from_a_saved_state_keeps_far_nodes_and_refuses_bad_states() {
+    let Some(dir) = remesh(How::Native) else {
+        return;
+    };
+    // the state file the C program saved is the command line's format:
+    // the core reads it, and it holds the plate's 5 edges and its face
+    let bytes = std::fs::read(dir.path().join("old.state")).unwrap();
+    let state = bubblemesh_core::remesh::State::from_bytes(&bytes).unwrap();
+    assert_eq!(state.entities.len(), 6);
+    assert_eq!(state.spacing, "0.04");
+    assert_eq!(state.source, "bm_model");
+    assert!(state.entities.iter().all(|e| !e.bubbles.is_empty()));
+}
+
+#[test]
+fn remesh_under_valgrind() {
+    remesh(How::Valgrind);
+}
+
 /// Runs a Python ctypes example against the library; it must print
 /// "checks passed" and write `out_name`, which is read back.
 fn python_example(script: &str, out_name: &str) -> Option<bubblemesh_core::Mesh> {
