@@ -268,8 +268,9 @@ fn meshed(args: &[&str], report: &Path) -> serde_json::Value {
 /// volume starts from its old bubbles (the report says how many were
 /// kept), settles in a short stage 2, its tetrahedra are as good as from
 /// scratch, and the old interior nodes far from the moved face are in the
-/// new mesh bit for bit; with a region around that face, every old node
-/// farther than two spacings from it is.
+/// new mesh bit for bit, but for the few the report says were freed for
+/// slivers; with a region around that face, every old node farther than
+/// two spacings from it is.
 #[test]
 fn a_solid_remeshes_warm_and_keeps_its_interior() {
     let dir = tempfile::tempdir().unwrap();
@@ -345,10 +346,11 @@ fn a_solid_remeshes_warm_and_keeps_its_interior() {
     let far: Vec<_> = old.iter().filter(|b| x(b) < 1.0 - 4.0 * d).collect();
     let lost = far.iter().filter(|b| !now.contains(**b)).count();
     assert!(far.len() > old.len() / 3);
-    assert_eq!(
-        lost,
-        0,
-        "{lost} of {} old nodes far from the moved face moved",
+    // only the kept bubbles freed for slivers among fixed nodes move
+    let released = vol(&warm)["warm_released"].as_u64().unwrap_or(0) as usize;
+    assert!(
+        lost <= released && released * 20 < kept as usize,
+        "{lost} of {} old nodes far from the moved face moved, {released} of {kept} released",
         far.len()
     );
 

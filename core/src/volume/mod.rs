@@ -398,6 +398,11 @@ pub struct VolumeReport {
     /// over as stage 1, FCC seeds added where they left room ([`warm`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warm: Option<[usize; 3]>,
+    /// Kept bubbles of a continuous re-meshing freed for the sliver pass:
+    /// corners of a tetrahedron below the sliver target whose corners were
+    /// all fixed ([`warm`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warm_released: Option<usize>,
     pub relax: Option<crate::bubbles::system::RelaxStats>,
 }
 
@@ -716,7 +721,12 @@ fn attempt(
     let t = Instant::now();
     if !job.opts.fast {
         let inside = |p: &P3| sys.carrier.contains_point(p);
-        remove_slivers(boundary, n_keep, &mut tm, first_qs, inside, &mut rep, mesh)?;
+        // a continuous re-meshing may move kept bubbles where slivers
+        // need it; a local one keeps them where they were
+        let release = warm.is_some() && !job.opts.warm.as_deref().is_some_and(|w| w.local);
+        remove_slivers(
+            boundary, n_keep, release, &mut tm, first_qs, inside, &mut rep, mesh,
+        )?;
     }
     rep.sliver_s = t.elapsed().as_secs_f64();
     if !job.opts.fast {
@@ -862,10 +872,13 @@ fn connect_first(
 /// Steiner points for the slivers among fixed nodes, each followed by a
 /// re-connection and another sliver pass. `first_qs`: the objectives of
 /// the tetrahedra, if the caller has them. The first `n_keep` nodes keep
-/// their indices and never move.
+/// their indices and never move, except, with `release`, the kept bubbles
+/// of a warm start at the corners of a sliver among fixed nodes.
+#[allow(clippy::too_many_arguments)]
 fn remove_slivers(
     boundary: &Boundary,
     n_keep: usize,
+    release: bool,
     tm: &mut TetMesh,
     first_qs: Option<Vec<f64>>,
     inside: impl Fn(&P3) -> bool,
@@ -881,6 +894,28 @@ fn remove_slivers(
     // order they meet them, so every one gets its Steiner points now
     // (see steiner::steiner_points)
     let locked = |t: &[u32; 4], movable: &[bool]| t.iter().all(|&k| !movable[k as usize]);
+    if release {
+        // the old mesh had its kept bubbles where they are for its own
+        // connectivity, which the new Delaunay one need not be: where that
+        // leaves a sliver among fixed nodes, its kept corners move (a
+        // Steiner point costs a re-connection, and stays a node)
+        let mut freed = Vec::new();
+        for t in &tm.tets {
+            if locked(t, &tm.movable) && tet::star::objective_of(&tm.pos, t) < TARGET_Q {
+                freed.extend(
+                    t.iter()
+                        .map(|&k| k as usize)
+                        .filter(|&k| k >= n_fixed && k < n_keep),
+                );
+            }
+        }
+        freed.sort_unstable();
+        freed.dedup();
+        for &k in &freed {
+            tm.movable[k] = true;
+        }
+        rep.warm_released = Some(freed.len());
+    }
     let mut work: Vec<[u32; 4]> = tm
         .tets
         .iter()

@@ -5,7 +5,11 @@
 //!   change, or outside a local re-meshing's region) become fixed bubbles
 //!   after the boundary's, at their old coordinates, bit for bit; they stay
 //!   fixed through stage 2, the ODT smoothing, the sliver pass and the
-//!   polish, and become nodes of the volume unmoved.
+//!   polish, and become nodes of the volume unmoved. The one exception, in
+//!   a continuous re-meshing only: a kept corner of a sliver whose corners
+//!   are all fixed moves in the sliver pass (the Delaunay connection of the
+//!   old nodes need not be the old mesh's; a Steiner point there costs a
+//!   re-connection), and the report counts them (`warm_released`).
 //! - Free old bubbles stay where they were (a volume's bubbles have no
 //!   parameters to carry them by); those now outside the volume are
 //!   dropped, and those crowding the boundary, a kept bubble or each other
@@ -39,10 +43,10 @@ use super::{lattice_seeds, Boundary, InVolume, Lattice};
 pub(super) const STAGE2_STEPS: usize = 20;
 
 /// ODT iterations of a warm volume (from scratch: 20, which never stop
-/// early on case e). On case e 20, 8, 5 and 3 iterations gave mean radius
-/// ratios 0.9145–0.9149 and minima 0.55–0.57; 5 cost 0.05 s against
-/// 0.23 s for 20.
-pub(super) const ODT_ITERATIONS: usize = 5;
+/// early on case e of `bench/run_remesh.py`). On case e 20, 8, 5 and 3
+/// iterations gave mean radius ratios 0.9145–0.9149 and minima 0.55–0.57
+/// (from scratch 0.9143, 0.551); 3 cost 0.02 s against 0.23 s for 20.
+pub(super) const ODT_ITERATIONS: usize = 3;
 
 /// A kept bubble closer than this many of its spacings to a boundary
 /// bubble is dropped (a re-meshed boundary came onto it).
