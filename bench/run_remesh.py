@@ -41,8 +41,7 @@ Cases:
       re-meshes from frame k-1's state (chained), scratch meshes each frame
       (times summed over the frames; quality: the worst frame's difference)
   e   the unit cube into tetrahedra (--dim 3), d = 0.08, one face moved
-      (x max 1 -> 1.03); volumes are meshed from scratch in a re-meshing
-      (only their faces are warm-started), so little time is saved
+      (x max 1 -> 1.03); the volume warm-starts too (core/src/volume/warm.rs)
 
   python3 bench/run_remesh.py [--bin target/release/bubblemesh] [--cases a,b] [--reps 3]
 
