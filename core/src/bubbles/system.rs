@@ -116,6 +116,39 @@ pub struct Pair {
 pub const KEPT_ID: u32 = u32::MAX;
 
 impl<'a, C: Carrier> System<'a, C> {
+    /// A system of fixed bubbles only (positions, parameters, diameters,
+    /// node ids; free ones follow with [`System::push_free`]), at rest. The
+    /// packing is held at [`PRESSURE`] where the spacing varies and at 1
+    /// where it is uniform: the pressure helps graded packings anneal, and
+    /// only slows a uniform lattice down (measured on cases E and G).
+    pub fn with_fixed(
+        carrier: C,
+        spacing: &'a dyn Spacing,
+        dim: u8,
+        pos: Vec<P3>,
+        params: Vec<[f64; 2]>,
+        d: Vec<f64>,
+        fixed_ids: Vec<u32>,
+    ) -> Self {
+        let n_fixed = fixed_ids.len();
+        System {
+            carrier,
+            spacing,
+            dim,
+            n_fixed,
+            pos,
+            params,
+            vel: vec![V3::zeros(); n_fixed],
+            d,
+            fixed_ids,
+            pressure: if spacing.constant().is_some() {
+                1.0
+            } else {
+                PRESSURE
+            },
+        }
+    }
+
     pub fn n(&self) -> usize {
         self.pos.len()
     }

@@ -589,26 +589,15 @@ impl<'a> FaceJob<'a> {
         // check is only made for a varying spacing
         let check_seeds = spacing.constant().is_none() || PRM.apex_layer || !surface.is_planar();
         let seeds = placement::uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
-        let n_fixed = boundary.ids.len();
-        let mut sys = System {
+        let mut sys = System::with_fixed(
             carrier,
             spacing,
-            dim: 2,
-            n_fixed,
-            pos: fixed_pos,
-            params: boundary.uv.clone(),
-            vel: vec![V3::zeros(); n_fixed],
-            d: fixed_d,
-            fixed_ids: boundary.ids.clone(),
-            // the pressure helps graded packings anneal; with a uniform
-            // spacing it only slows the lattice down (measured on cases E
-            // and G)
-            pressure: if spacing.constant().is_some() {
-                1.0
-            } else {
-                system::PRESSURE
-            },
-        };
+            2,
+            fixed_pos,
+            boundary.uv.clone(),
+            fixed_d,
+            boundary.ids.clone(),
+        );
         // the quadtree's root starts left of the box, so on a periodic
         // surface a seed may lie one period off: stage 2 wraps the bubbles it
         // moves, but with stage 1 alone (`--fast`) the connection needs every

@@ -116,23 +116,7 @@ pub(super) fn stage1<'a>(
         n_boundary,
         &seeds,
     );
-    let n_fixed = fixed_ids.len();
-    let mut sys = System {
-        carrier,
-        spacing,
-        dim: 2,
-        n_fixed,
-        pos: fixed_pos,
-        params: fixed_uv,
-        vel: vec![V3::zeros(); n_fixed],
-        d: fixed_d,
-        fixed_ids,
-        pressure: if spacing.constant().is_some() {
-            1.0
-        } else {
-            system::PRESSURE
-        },
-    };
+    let mut sys = System::with_fixed(carrier, spacing, 2, fixed_pos, fixed_uv, fixed_d, fixed_ids);
     for s in seeds {
         sys.push_free(s.pos, s.params, s.d);
     }

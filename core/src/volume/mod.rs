@@ -169,6 +169,7 @@ impl Spacing for Scaled<'_> {
 }
 
 /// Bubbles moving inside a volume.
+#[derive(Clone, Copy)]
 pub(crate) struct InVolume<'a> {
     pub entity: EntityRef,
     pub geometry: Option<&'a dyn VolumeGeometry>,
@@ -667,7 +668,25 @@ fn attempt(
     };
     let (mut sys, far) = match warm {
         Some(start) => {
-            let (sys, counts, far) = warm::stage1(boundary, &scaled, carrier, start)?;
+            let fixed = warm::Fixed {
+                pos: &boundary.fixed_pos,
+                d: &boundary.fixed_d,
+                ids: &boundary.fixed_ids,
+            };
+            let inside = |p: &P3| carrier.contains_point(p);
+            let fill = |pos: &[P3], d: &[f64]| {
+                lattice_seeds(
+                    &carrier,
+                    &scaled,
+                    boundary.lo,
+                    boundary.hi,
+                    pos,
+                    d,
+                    Lattice::Fcc,
+                )
+            };
+            let (sys, counts, far) =
+                warm::stage1(fixed, &scaled, carrier.clone(), inside, fill, start)?;
             rep.stage1_bubbles = counts[1] + counts[2];
             rep.warm = Some(counts);
             (sys, Some(far))
@@ -759,23 +778,15 @@ fn seed_bubbles<'a>(
         lattice,
     )?;
     rep.stage1_bubbles = seeds.len();
-    let n_fixed = boundary.n_fixed();
-    let mut sys = crate::bubbles::system::System {
+    let mut sys = crate::bubbles::system::System::with_fixed(
         carrier,
         spacing,
-        dim: 3,
-        n_fixed,
-        pos: boundary.fixed_pos.clone(),
-        params: vec![[0.0; 2]; n_fixed],
-        vel: vec![V3::zeros(); n_fixed],
-        d: boundary.fixed_d.clone(),
-        fixed_ids: boundary.fixed_ids.clone(),
-        pressure: if spacing.constant().is_some() {
-            1.0
-        } else {
-            crate::bubbles::system::PRESSURE
-        },
-    };
+        3,
+        boundary.fixed_pos.clone(),
+        vec![[0.0; 2]; boundary.n_fixed()],
+        boundary.fixed_d.clone(),
+        boundary.fixed_ids.clone(),
+    );
     for (p, d) in seeds {
         sys.push_free(p, [0.0; 2], d);
     }

@@ -23,15 +23,14 @@
 //! the ODT smoothing runs [`ODT_ITERATIONS`] times over the free nodes and
 //! the kept ones near them only.
 
+use crate::bubbles::constraint::Carrier;
 use crate::bubbles::system::{System, KEPT_ID};
 use crate::error::MeshError;
 use crate::face::placement::{uncrowded, Seed};
 use crate::face::warm::{split_far, Far};
-use crate::geom::{P3, V3};
+use crate::geom::P3;
 use crate::remesh::warm::EntityStart;
 use crate::spacing::{Spacing, SpacingQuery};
-
-use super::{lattice_seeds, Boundary, InVolume, Lattice};
 
 /// Stage-2 steps at most of a warm volume. The old bubbles are an
 /// ODT-smoothed packing and the fill is FCC, both near a balance; the ODT
@@ -57,16 +56,29 @@ const ON_TOP: f64 = 0.25;
 /// packing left room.
 pub(super) type WarmCounts = [usize; 3];
 
-/// Stage 1 of a volume from the old bubbles `start` (see the module docs).
-/// Returns the system (boundary bubbles, then the kept ones, fixed; then
-/// the free ones), the counts, and the kept bubbles set aside for stage 2.
-pub(super) fn stage1<'a>(
-    boundary: &Boundary,
+/// The volume's fixed bubbles (its boundary nodes): positions, diameters
+/// and node ids.
+pub(super) struct Fixed<'b> {
+    pub pos: &'b [P3],
+    pub d: &'b [f64],
+    pub ids: &'b [u32],
+}
+
+/// Stage 1 of a volume from the old bubbles `start` (see the module docs),
+/// after the boundary's `fixed` bubbles, in `carrier` (whose inside test is
+/// `inside`). `fill(pos, d)` gives the FCC seeds clear of the bubbles at
+/// `pos` with diameters `d`. Returns the system (boundary bubbles, then the
+/// kept ones, fixed; then the free ones), the counts, and the kept bubbles
+/// set aside for stage 2.
+pub(super) fn stage1<'a, C: Carrier>(
+    fixed: Fixed<'_>,
     spacing: &'a dyn Spacing,
-    carrier: InVolume<'a>,
+    carrier: C,
+    inside: impl Fn(&P3) -> bool,
+    fill: impl FnOnce(&[P3], &[f64]) -> Result<Vec<(P3, f64)>, MeshError>,
     start: &EntityStart,
-) -> Result<(System<'a, InVolume<'a>>, WarmCounts, Far), MeshError> {
-    let entity = carrier.entity;
+) -> Result<(System<'a, C>, WarmCounts, Far), MeshError> {
+    let entity = carrier.entity();
     let d_at = |p: &P3| -> Result<f64, MeshError> {
         let d = spacing.spacing(&SpacingQuery {
             point: *p,
@@ -75,31 +87,27 @@ pub(super) fn stage1<'a>(
         });
         crate::error::check_spacing(d, *p, entity)
     };
-    let n_boundary = boundary.n_fixed();
-    let mut fixed_pos = boundary.fixed_pos.clone();
-    let mut fixed_d = boundary.fixed_d.clone();
-    let mut fixed_ids = boundary.fixed_ids.clone();
+    let n_boundary = fixed.ids.len();
+    let mut fixed_pos = fixed.pos.to_vec();
+    let mut fixed_d = fixed.d.to_vec();
+    let mut fixed_ids = fixed.ids.to_vec();
     let mut counts: WarmCounts = [0; 3];
     // kept bubbles: inside the new volume and not on top of a boundary
     // bubble. They lay beside the boundary bubbles near them in the old
     // mesh, which are kept too (the footprint's band is wider than a
     // bubble's reach), so only a re-meshed boundary can come that close.
     let bgrid = crate::bubbles::grid::Grid::new(
-        &boundary.fixed_pos,
-        boundary
-            .fixed_d
-            .iter()
-            .cloned()
-            .fold(f64::MIN_POSITIVE, f64::max),
+        fixed.pos,
+        fixed.d.iter().cloned().fold(f64::MIN_POSITIVE, f64::max),
     );
     for b in &start.kept {
-        if !carrier.contains_point(&b.pos) {
+        if !inside(&b.pos) {
             continue;
         }
         let d = d_at(&b.pos)?;
         let mut on_top = false;
         bgrid.query(&b.pos, ON_TOP * d, |j| {
-            on_top |= (boundary.fixed_pos[j as usize] - b.pos).norm() < ON_TOP * d;
+            on_top |= (fixed.pos[j as usize] - b.pos).norm() < ON_TOP * d;
         });
         if !on_top {
             fixed_pos.push(b.pos);
@@ -111,7 +119,7 @@ pub(super) fn stage1<'a>(
     let carried: Vec<Seed> = start
         .free
         .iter()
-        .filter(|b| carrier.contains_point(&b.pos))
+        .filter(|b| inside(&b.pos))
         .map(|b| {
             Ok(Seed {
                 pos: b.pos,
@@ -126,22 +134,14 @@ pub(super) fn stage1<'a>(
     let mut near_d = fixed_d.clone();
     near_pos.extend(carried.iter().map(|s| s.pos));
     near_d.extend(carried.iter().map(|s| s.d));
-    let fill: Vec<Seed> = lattice_seeds(
-        &carrier,
-        spacing,
-        boundary.lo,
-        boundary.hi,
-        &near_pos,
-        &near_d,
-        Lattice::Fcc,
-    )?
-    .into_iter()
-    .map(|(pos, d)| Seed {
-        pos,
-        params: [0.0; 2],
-        d,
-    })
-    .collect();
+    let fill: Vec<Seed> = fill(&near_pos, &near_d)?
+        .into_iter()
+        .map(|(pos, d)| Seed {
+            pos,
+            params: [0.0; 2],
+            d,
+        })
+        .collect();
     let filled = uncrowded(fill, &near_pos, &near_d, true);
     counts[1] = carried.len();
     counts[2] = filled.len();
@@ -155,23 +155,7 @@ pub(super) fn stage1<'a>(
         n_boundary,
         &seeds,
     );
-    let n_fixed = fixed_ids.len();
-    let mut sys = System {
-        carrier,
-        spacing,
-        dim: 3,
-        n_fixed,
-        pos: fixed_pos,
-        params: fixed_uv,
-        vel: vec![V3::zeros(); n_fixed],
-        d: fixed_d,
-        fixed_ids,
-        pressure: if spacing.constant().is_some() {
-            1.0
-        } else {
-            crate::bubbles::system::PRESSURE
-        },
-    };
+    let mut sys = System::with_fixed(carrier, spacing, 3, fixed_pos, fixed_uv, fixed_d, fixed_ids);
     for s in seeds {
         sys.push_free(s.pos, s.params, s.d);
     }
