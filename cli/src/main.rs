@@ -465,6 +465,9 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     for line in bubblemesh_run::refined_warnings(&model, &report) {
         eprintln!("{line}");
     }
+    if let Some(line) = bubblemesh_run::touching_warning(&report) {
+        eprintln!("{line}");
+    }
     warn_low_quality(&low);
     Ok(())
 }

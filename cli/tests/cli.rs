@@ -512,3 +512,61 @@ fn unit_is_refused_where_it_cannot_apply() {
     );
     assert!(!out.exists(), "a refused run wrote {}", out.display());
 }
+
+/// Two boxes that share the face x = 1 but are separate solids: each is
+/// meshed on its own and is valid, and the run says, on stderr and in the
+/// report, that the parts touch without being joined (meshcheck counts the
+/// pairs as duplicate nodes); one box alone says nothing.
+#[test]
+fn touching_solids_are_reported_not_silently_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let two = dir.path().join("two.toml");
+    std::fs::write(
+        &two,
+        "format = \"bubblemesh-domain 1\"\n\n[[solid]]\nname = \"a\"\nbox = { min = [0, 0, 0], max = [1, 1, 1] }\n\n\
+         [[solid]]\nname = \"b\"\nbox = { min = [1, 0, 0], max = [2, 1, 1] }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("two.msh");
+    let rep = dir.path().join("two.json");
+    let o = run(&[
+        "mesh",
+        two.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "0.25",
+        "--dim",
+        "3",
+        "-q",
+        "--report",
+        rep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("separate parts of the mesh touch at 16 pair(s) of coinciding nodes"),
+        "{}",
+        stderr(&o)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert_eq!(j["engine"]["touching"]["node_pairs"], 16);
+    assert_eq!(j["engine"]["touching"]["at"][0], 1.0);
+    // one box: nothing touches
+    let one = dir.path().join("one.toml");
+    std::fs::write(
+        &one,
+        "format = \"bubblemesh-domain 1\"\n\n[[solid]]\nname = \"a\"\nbox = { min = [0, 0, 0], max = [1, 1, 1] }\n",
+    )
+    .unwrap();
+    let o = run(&[
+        "mesh",
+        one.to_str().unwrap(),
+        "-o",
+        dir.path().join("one.msh").to_str().unwrap(),
+        "--size",
+        "0.25",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("touch"), "{}", stderr(&o));
+}

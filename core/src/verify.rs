@@ -142,9 +142,76 @@ fn key2(a: u32, b: u32) -> (u32, u32) {
 }
 
 /// No two nodes of the highest-dimensional elements of one connected part
-/// closer than `DUPLICATE` × diag: sorted by x, each node is
-/// compared with the following ones while their x is within the tolerance.
+/// closer than `DUPLICATE` × diag ([`coinciding`]).
 fn check_duplicates(mesh: &Mesh, diag: f64) -> Result<(), CheckError> {
+    let mut found = None;
+    coinciding(mesh, diag, |i, j, same_part| {
+        if same_part {
+            found = Some((i, j));
+        }
+        !same_part
+    });
+    match found {
+        None => Ok(()),
+        Some((i, j)) => {
+            let (ei, ej) = (mesh.nodes[i as usize].entity, mesh.nodes[j as usize].entity);
+            Err(CheckError {
+                also: vec![],
+                refinable: false,
+                entity: ei,
+                what: format!("two mesh nodes coincide (one on {ei}, one on {ej})"),
+                at: pos(mesh, i),
+            })
+        }
+    }
+}
+
+/// Where separate parts of a mesh touch (the solids of an assembly meshed
+/// apart): nodes of different connected parts that coincide, within
+/// `DUPLICATE` × diag. The parts are not joined there; a simulation
+/// needs contact or tie conditions, and a checker that wants one connected
+/// mesh (meshcheck) counts the pairs as duplicate nodes.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Touching {
+    /// Pairs of coinciding nodes of different parts.
+    pub node_pairs: usize,
+    /// The entities of the first pairs (at most [`TOUCHING_LISTED`]
+    /// distinct ones), e.g. `["face 3", "face 17"]`.
+    pub entities: Vec<[String; 2]>,
+    /// The first pair's place, model coordinates.
+    pub at: [f64; 3],
+}
+
+/// Entity pairs listed in [`Touching::entities`].
+pub const TOUCHING_LISTED: usize = 10;
+
+/// Where separate parts of `mesh` touch ([`Touching`]); `None` where none do.
+pub fn touching_parts(mesh: &Mesh) -> Option<Touching> {
+    let (lo, hi) = mesh.bbox()?;
+    let mut t = Touching::default();
+    coinciding(mesh, (hi - lo).norm(), |i, j, same_part| {
+        if !same_part {
+            if t.node_pairs == 0 {
+                let p = pos(mesh, i);
+                t.at = [p.x, p.y, p.z];
+            }
+            t.node_pairs += 1;
+            let pair = [i, j].map(|k| mesh.nodes[k as usize].entity.to_string());
+            if t.entities.len() < TOUCHING_LISTED && !t.entities.contains(&pair) {
+                t.entities.push(pair);
+            }
+        }
+        true
+    });
+    (t.node_pairs > 0).then_some(t)
+}
+
+/// Calls `f(i, j, same_part)` for every pair of nodes of the
+/// highest-dimensional elements closer than `DUPLICATE` × diag, with
+/// whether they are in one connected part of the mesh (union-find over the
+/// elements); stops when `f` returns false. Sorted by x, each node is
+/// compared with the following ones while their x is within the tolerance.
+fn coinciding(mesh: &Mesh, diag: f64, mut f: impl FnMut(u32, u32, bool) -> bool) {
     let tol = DUPLICATE * diag;
     // among the nodes of the highest-dimensional elements, as meshcheck
     // counts them (wire edges outside every face may overlap)
@@ -195,19 +262,14 @@ fn check_duplicates(mesh: &Mesh, diag: f64) -> Result<(), CheckError> {
             if q.x - p.x > tol {
                 break;
             }
-            if (q - p).norm() <= tol && root(&mut parent, i) == root(&mut parent, j) {
-                let (ei, ej) = (mesh.nodes[i as usize].entity, mesh.nodes[j as usize].entity);
-                return Err(CheckError {
-                    also: vec![],
-                    refinable: false,
-                    entity: ei,
-                    what: format!("two mesh nodes coincide (one on {ei}, one on {ej})"),
-                    at: p,
-                });
+            if (q - p).norm() <= tol {
+                let same = root(&mut parent, i) == root(&mut parent, j);
+                if !f(i, j, same) {
+                    return;
+                }
             }
         }
     }
-    Ok(())
 }
 
 /// One triangle's use of a segment: the face and whether it runs from the

@@ -14,7 +14,7 @@
 //! - [`stage_output`]: a mesh file through `bubblemesh-io` or a picture
 //!   through `bubblemesh-viz`, staged in an [`OutputSet`] (written whole
 //!   or not at all);
-//! - the warnings a run prints ([`refined_warnings`],
+//! - the warnings a run prints ([`refined_warnings`], [`touching_warning`],
 //!   [`poor_element_warnings`]) and its progress bar ([`progress_bar`]).
 //!
 //! Every failure is an [`Error`], whose text is the command line's
@@ -624,6 +624,24 @@ pub fn refined_warnings(model: &Model, report: &Report) -> Vec<String> {
         ));
     }
     out
+}
+
+/// The warning that separate parts of the mesh (solids of an assembly)
+/// touch without being joined ([`bubblemesh_core::verify::touching_parts`]):
+/// the mesh is valid part by part, but not one connected mesh there.
+pub fn touching_warning(report: &Report) -> Option<String> {
+    let t = report.touching.as_ref()?;
+    let first = t
+        .entities
+        .first()
+        .map(|[a, b]| format!(", first between {a} and {b}"))
+        .unwrap_or_default();
+    Some(format!(
+        "warning: separate parts of the mesh touch at {} pair(s) of coinciding nodes{first} near ({:.6}, {:.6}, {:.6}): \
+         each part is meshed on its own, so they are not connected there (a simulation needs contact or tie \
+         conditions; a checker that wants one connected mesh counts them as duplicate nodes)",
+        t.node_pairs, t.at[0], t.at[1], t.at[2]
+    ))
 }
 
 /// The warnings of faces and volumes with elements of radius ratio below

@@ -77,6 +77,10 @@ pub struct Report {
     pub refined_places: Vec<refine::RefinedPlace>,
     /// How many times the model was meshed again finer (0: once, as asked).
     pub refinement_rounds: usize,
+    /// Where separate parts of the mesh (solids of an assembly) touch
+    /// without being joined ([`crate::verify::touching_parts`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub touching: Option<crate::verify::Touching>,
 }
 
 /// Meshes `model` with the node spacing `spacing`, in the order of
@@ -263,6 +267,7 @@ fn mesh_once(
     } = a;
     // never silently wrong: the mesh leaves the engine only after its check
     crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
+    report.touching = crate::verify::touching_parts(&mesh);
     report.nodes = mesh.nodes.len();
     report.lines = mesh.lines.len();
     report.triangles = mesh.triangles.len();

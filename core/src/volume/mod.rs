@@ -685,8 +685,7 @@ fn attempt(
                     Lattice::Fcc,
                 )
             };
-            let (sys, counts, far) =
-                warm::stage1(fixed, &scaled, carrier.clone(), inside, fill, start)?;
+            let (sys, counts, far) = warm::stage1(fixed, &scaled, carrier, inside, fill, start)?;
             rep.stage1_bubbles = counts[1] + counts[2];
             rep.warm = Some(counts);
             (sys, Some(far))
