@@ -369,6 +369,7 @@ fn lift_bubbles<C: Carrier>(
             }
         }
     }
+    let (ln_lo, ln_hi) = (PRM.band_lo.ln(), PRM.band_hi.ln());
     let mut moved = Vec::new();
     for i in nf..n {
         if !poor[i] {
@@ -389,12 +390,17 @@ fn lift_bubbles<C: Carrier>(
                 w = w.min(q);
                 sum += q;
                 if band > 0.0 {
-                    // each edge at i is in two of its triangles: half weight per triangle
+                    // each edge at i is in two of its triangles: half weight per triangle;
+                    // inside the band the penalty is zero, so the logarithm (the
+                    // costliest part of a trial, 6 % of case B) is taken outside only
                     for &j in &t {
                         if j != i {
-                            let r = ((sys.pos[j] - p).norm() / (0.5 * (sys.d[i] + sys.d[j]))).ln();
-                            let out =
-                                (r - PRM.band_hi.ln()).max(0.0) + (PRM.band_lo.ln() - r).max(0.0);
+                            let l = (sys.pos[j] - p).norm() / (0.5 * (sys.d[i] + sys.d[j]));
+                            if (PRM.band_lo..=PRM.band_hi).contains(&l) {
+                                continue;
+                            }
+                            let r = l.ln();
+                            let out = (r - ln_hi).max(0.0) + (ln_lo - r).max(0.0);
                             sum -= 0.5 * band * out * out;
                         }
                     }
