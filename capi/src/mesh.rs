@@ -251,18 +251,15 @@ fn remesh_section(
     mesh: &Mesh,
     report: &Report,
 ) -> serde_json::Value {
-    let s = summary::summarise(&w.state.state, matching, warm, mesh, w.region.as_ref());
-    let steps: Vec<usize> = report
-        .faces
-        .iter()
-        .filter_map(|f| f.relax.as_ref().map(|r| r.steps))
-        .collect();
-    serde_json::json!({
-        "summary": s,
-        "stage2_steps_per_face": steps,
-        "stage2_steps_max": steps.iter().copied().max().unwrap_or(0),
-        "stage2_steps_total": steps.iter().sum::<usize>(),
-    })
+    let s = summary::section(
+        &w.state.state,
+        matching,
+        warm,
+        mesh,
+        w.region.as_ref(),
+        report.stage2_steps_per_face(),
+    );
+    serde_json::to_value(s).unwrap_or_default()
 }
 
 /// Meshes `model` with the spacing `ready` makes (from the state of `warm`

@@ -76,24 +76,15 @@ impl Warm {
     /// The report's `remesh` section: what was matched, kept, moved,
     /// added and removed, and the stage-2 steps of each face.
     pub(crate) fn report(&self, mesh: &Mesh, report: &Report) -> serde_json::Value {
-        let s = summary::summarise(
+        let s = summary::section(
             &self.state,
             self.matching.clone(),
             &self.warm,
             mesh,
             self.region.as_ref(),
+            report.stage2_steps_per_face(),
         );
-        let steps: Vec<usize> = report
-            .faces
-            .iter()
-            .filter_map(|f| f.relax.as_ref().map(|r| r.steps))
-            .collect();
-        serde_json::json!({
-            "summary": s,
-            "stage2_steps_per_face": steps,
-            "stage2_steps_max": steps.iter().copied().max().unwrap_or(0),
-            "stage2_steps_total": steps.iter().sum::<usize>(),
-        })
+        serde_json::to_value(s).unwrap_or_default()
     }
 
     /// One line for stderr.

@@ -83,6 +83,16 @@ pub struct Report {
     pub touching: Option<crate::verify::Touching>,
 }
 
+impl Report {
+    /// The stage-2 steps of each face that ran one, in face order.
+    pub fn stage2_steps_per_face(&self) -> Vec<usize> {
+        self.faces
+            .iter()
+            .filter_map(|f| f.relax.as_ref().map(|r| r.steps))
+            .collect()
+    }
+}
+
 /// Meshes `model` with the node spacing `spacing`, in the order of
 /// dimensions, up to `opts.dim` (default: the model's dimension).
 ///

@@ -18,6 +18,39 @@ use crate::remesh::region::{self, Region};
 use crate::remesh::state::State;
 use crate::remesh::warm::Matching;
 
+/// The report's `remesh` section: the [`Summary`] and the stage-2 steps of
+/// each face (and their largest and total).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Section {
+    /// What was matched, kept, moved, added and removed.
+    pub summary: Summary,
+    /// Stage-2 steps of each face that ran one, in face order.
+    pub stage2_steps_per_face: Vec<usize>,
+    /// The most steps of one face.
+    pub stage2_steps_max: usize,
+    /// All faces' steps.
+    pub stage2_steps_total: usize,
+}
+
+/// The report's `remesh` section of a run from `state` ([`summarise`]'s
+/// arguments) whose faces took `steps` stage-2 steps each
+/// ([`crate::Report::stage2_steps_per_face`]).
+pub fn section(
+    state: &State,
+    matching: Matching,
+    warm: &crate::remesh::WarmStart,
+    mesh: &Mesh,
+    region: Option<&Region>,
+    steps: Vec<usize>,
+) -> Section {
+    Section {
+        summary: summarise(state, matching, warm, mesh, region),
+        stage2_steps_max: steps.iter().copied().max().unwrap_or(0),
+        stage2_steps_total: steps.iter().sum(),
+        stage2_steps_per_face: steps,
+    }
+}
+
 /// The counts of a re-meshing.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct Summary {
