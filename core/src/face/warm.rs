@@ -41,7 +41,7 @@ pub(super) struct WarmCounts {
 
 /// The fixed bubbles of a face (its boundary): positions, diameters,
 /// (u,v) and node ids.
-pub(super) struct Fixed {
+pub(crate) struct Fixed {
     pub pos: Vec<P3>,
     pub d: Vec<f64>,
     pub uv: Vec<[f64; 2]>,
@@ -104,23 +104,41 @@ pub(super) fn stage1<'a>(
     let filled = uncrowded(quad, &near_pos, &near_d, true);
     counts.carried = carried.len();
     counts.filled = filled.len();
-    let seeds = carried.into_iter().chain(filled);
-    let seeds: Vec<placement::Seed> = seeds.collect();
-    // kept bubbles far from every seed cannot meet a free bubble in a
-    // short stage 2: they wait outside the system (see `restore`)
-    let far = split_far(
-        &mut fixed_pos,
-        &mut fixed_uv,
-        &mut fixed_d,
-        &mut fixed_ids,
-        n_boundary,
-        &seeds,
-    );
-    let mut sys = System::with_fixed(carrier, spacing, 2, fixed_pos, fixed_uv, fixed_d, fixed_ids);
+    let seeds: Vec<placement::Seed> = carried.into_iter().chain(filled).collect();
+    let fixed = Fixed {
+        pos: fixed_pos,
+        d: fixed_d,
+        uv: fixed_uv,
+        ids: fixed_ids,
+    };
+    let (sys, far) = assemble(carrier, spacing, 2, fixed, n_boundary, seeds);
+    Ok((sys, counts, far))
+}
+
+/// The stage-2 system of a warm start: the fixed bubbles (the boundary's,
+/// its first `n_boundary`, then the kept ones), then the free `seeds`.
+/// Kept bubbles far from every seed cannot meet a free bubble in a short
+/// stage 2: they wait outside the system, returned apart (see `restore`).
+pub(crate) fn assemble<'a, C: Carrier>(
+    carrier: C,
+    spacing: &'a dyn Spacing,
+    dim: u8,
+    fixed: Fixed,
+    n_boundary: usize,
+    seeds: Vec<placement::Seed>,
+) -> (System<'a, C>, Far) {
+    let Fixed {
+        mut pos,
+        mut d,
+        mut uv,
+        mut ids,
+    } = fixed;
+    let far = split_far(&mut pos, &mut uv, &mut d, &mut ids, n_boundary, &seeds);
+    let mut sys = System::with_fixed(carrier, spacing, dim, pos, uv, d, ids);
     for s in seeds {
         sys.push_free(s.pos, s.params, s.d);
     }
-    Ok((sys, counts, far))
+    (sys, far)
 }
 
 /// Kept bubbles set aside during stage 2 (positions, parameters,
@@ -138,7 +156,7 @@ const WALL: f64 = 2.5;
 /// Takes the kept bubbles (fixed bubbles from `first` on) farther than
 /// [`NEAR`] spacings from every seed and [`WALL`] spacings from every
 /// boundary bubble out of the fixed arrays.
-pub(crate) fn split_far(
+fn split_far(
     pos: &mut Vec<P3>,
     uv: &mut Vec<[f64; 2]>,
     d: &mut Vec<f64>,

@@ -27,7 +27,7 @@ use crate::bubbles::constraint::Carrier;
 use crate::bubbles::system::{System, KEPT_ID};
 use crate::error::MeshError;
 use crate::face::placement::{uncrowded, Seed};
-use crate::face::warm::{split_far, Far};
+use crate::face::warm::{assemble, Far};
 use crate::geom::P3;
 use crate::remesh::warm::EntityStart;
 use crate::spacing::{Spacing, SpacingQuery};
@@ -146,18 +146,12 @@ pub(super) fn stage1<'a, C: Carrier>(
     counts[1] = carried.len();
     counts[2] = filled.len();
     let seeds: Vec<Seed> = carried.into_iter().chain(filled).collect();
-    let mut fixed_uv = vec![[0.0; 2]; fixed_pos.len()];
-    let far = split_far(
-        &mut fixed_pos,
-        &mut fixed_uv,
-        &mut fixed_d,
-        &mut fixed_ids,
-        n_boundary,
-        &seeds,
-    );
-    let mut sys = System::with_fixed(carrier, spacing, 3, fixed_pos, fixed_uv, fixed_d, fixed_ids);
-    for s in seeds {
-        sys.push_free(s.pos, s.params, s.d);
-    }
+    let fixed = crate::face::warm::Fixed {
+        uv: vec![[0.0; 2]; fixed_pos.len()],
+        pos: fixed_pos,
+        d: fixed_d,
+        ids: fixed_ids,
+    };
+    let (sys, far) = assemble(carrier, spacing, 3, fixed, n_boundary, seeds);
     Ok((sys, counts, far))
 }
