@@ -44,32 +44,13 @@
 
 #include "bubblemesh.h"
 #include "check.h"
+#include "circle.h"
 
 static double D = 0.04;
 static const double HOLE_R = 0.2;
 
 /* ---- the plate with a hole -------------------------------------------- */
 
-typedef struct {
-  double c[3], r;
-} circle_t;
-
-static int circle_eval(void *user, double t, int order, double *out) {
-  const circle_t *c = (const circle_t *)user;
-  double ct = cos(t), st = sin(t);
-  switch (order) {
-  case 0:
-    out[0] = c->c[0] + c->r * ct, out[1] = c->c[1] + c->r * st;
-    out[2] = c->c[2];
-    break;
-  case 1:
-    out[0] = -c->r * st, out[1] = c->r * ct, out[2] = 0.0;
-    break;
-  default:
-    out[0] = -c->r * ct, out[1] = -c->r * st, out[2] = 0.0;
-  }
-  return 0;
-}
 
 /* The plate with its hole at (hx, 0.5); `hole` must outlive the model. */
 static bm_model *plate(double hx, circle_t *hole) {

@@ -30,6 +30,7 @@
 
 #include "bubblemesh.h"
 #include "check.h"
+#include "circle.h"
 
 static const double R_MAJOR = 1.0, R_MINOR = 0.4;
 static const double PLATE_Z = -0.8, HALF = 1.0, HOLE_R = 0.5;
@@ -50,31 +51,6 @@ static int line_eval(void *user, double t, int order, double *out) {
   return 0;
 }
 
-typedef struct {
-  double c[3], r;
-} circle_t;
-
-static int circle_eval(void *user, double t, int order, double *out) {
-  const circle_t *c = (const circle_t *)user;
-  double ct = cos(t), st = sin(t);
-  switch (order) {
-  case 0:
-    out[0] = c->c[0] + c->r * ct;
-    out[1] = c->c[1] + c->r * st;
-    out[2] = c->c[2];
-    break;
-  case 1:
-    out[0] = -c->r * st;
-    out[1] = c->r * ct;
-    out[2] = 0.0;
-    break;
-  default:
-    out[0] = -c->r * ct;
-    out[1] = -c->r * st;
-    out[2] = 0.0;
-  }
-  return 0;
-}
 
 typedef struct {
   double R, r;
