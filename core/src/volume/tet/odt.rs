@@ -184,4 +184,47 @@ mod tests {
         let m1 = mean_q(&mesh.pos, &tets);
         assert!(m1 >= m0, "mean {m0} -> {m1}");
     }
+
+    /// A warm start's local smoothing (`OdtParams::local`: only the free
+    /// nodes and the fixed ones within `LOCAL_REACH` spacings are
+    /// tetrahedralized) moves the free nodes as the whole-volume smoothing
+    /// does, to rounding (the tetrahedra come in another order, so the
+    /// sums do): a corner of a jittered lattice free, the rest fixed.
+    #[test]
+    fn local_odt_moves_the_free_nodes_as_the_whole_one() {
+        let base = jittered_mesh(10, 0.4);
+        let mut whole = base.clone();
+        for (m, p) in whole.movable.iter_mut().zip(&base.pos) {
+            *m = *m && p.x < 3.5 && p.y < 3.5 && p.z < 3.5;
+        }
+        let mut local = whole.clone();
+        let inside = |p: &P3| (0..3).all(|k| p[k] > 0.0 && p[k] < 9.0);
+        let params = OdtParams {
+            iterations: 3,
+            ..Default::default()
+        };
+        odt_smooth(&mut whole, &params, inside);
+        odt_smooth(
+            &mut local,
+            &OdtParams {
+                local: true,
+                ..params
+            },
+            inside,
+        );
+        let free = whole.movable.iter().filter(|&&m| m).count();
+        assert!(free >= 27, "{free} free nodes");
+        let mut moved = 0;
+        for i in 0..base.pos.len() {
+            let gap = (whole.pos[i] - local.pos[i]).norm();
+            assert!(
+                gap <= 1e-12,
+                "node {i}: {} against {}",
+                whole.pos[i],
+                local.pos[i]
+            );
+            moved += (whole.pos[i] != base.pos[i]) as usize;
+        }
+        assert!(moved > 0 && moved <= free, "{moved} moved of {free} free");
+    }
 }
