@@ -17,8 +17,9 @@ use crate::error::{
 use crate::geometry::UserPtr;
 use crate::model::{bm_model, ModelObj};
 use crate::spacing::{bm_spacing, spacing_obj, Ready};
-use crate::state::{bm_state, state_obj, Seed, StateObj};
+use crate::state::{bm_state, state_obj, StateObj};
 use crate::{free_handle, into_handle, need, object, put, utf8, Object};
+use bubblemesh_core::remesh::Seed;
 
 /// A finished mesh (opaque): nodes, line segments on edges, triangles on
 /// faces, tetrahedra in volumes, each with the model entity it came from.
