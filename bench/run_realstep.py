@@ -10,13 +10,15 @@ write bench/out/realstep/results.json and bench/out/realstep/RESULTS.md.
 Sizes (shared/realstep/SOURCES.md): surfaces (`--dim 2`) at d = diag/25,
 tetrahedra (`--dim 3`) at d = diag/20, diag being the diagonal of the part's
 bounding box as Gmsh's OpenCascade import reports it (`Geometry.OCCBoundsUseStl`,
-so the box is tight), the same d for both meshers.
+so the box is tight), the same d for both meshers. OpenCascade converts every
+file to millimetres, so bubblemesh runs with `--unit mm` (files in metres,
+centimetres or inches would otherwise be meshed at 1000, 10 or 25.4 times d).
 
 Gmsh: OpenCascade STEP import, Frontal-Delaunay (algorithm 6) for surfaces,
 HXT (algorithm 10) for tetrahedra, uniform size d (no size from points or
 curvature), one thread. Its times are import, mesh and write, measured inside
 its process. bubblemesh: the whole process (`bubblemesh mesh FILE -o OUT
---size d --dim N --threads 1 --quiet`), wall time.
+--size d --dim N --unit mm --threads 1 --quiet`), wall time.
 
 Both run under the same address-space limit (`prlimit --as`) and timeout. A
 run is `valid` when it exits 0 and meshcheck says valid; a run that exits 0
@@ -98,7 +100,7 @@ def run_gmsh(step, out, mode, timeout, mem_mb):
 
 def run_bubblemesh(step, out, d, mode, timeout, mem_mb, threads):
     cmd = limited([BM, "mesh", step, "-o", out, "--size", repr(d), "--dim", str(DIM[mode]),
-                   "--quiet", "--threads", str(threads)], mem_mb)
+                   "--unit", "mm", "--quiet", "--threads", str(threads)], mem_mb)
     t = time.perf_counter()
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)

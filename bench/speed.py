@@ -517,7 +517,9 @@ def run_case(case, binary, a, meshdir):
             return rec
         d = info["diag"] / case["divisor"]            # as run_realstep: unrounded, repr() to bubblemesh
         rec["probe"] = info
-        case = dict(case, d=repr(d), spacing=repr(d), bm_args=["--size", repr(d), "--dim", str(case["dim"])])
+        # Gmsh's OpenCascade import converts every file to millimetres
+        bm_args = ["--size", repr(d), "--dim", str(case["dim"]), "--unit", "mm"]
+        case = dict(case, d=repr(d), spacing=repr(d), bm_args=bm_args)
         case["gmsh"] = dict(case["gmsh"], size={"const": d})
     rec["d"], rec["spacing"] = case["d"], case["spacing"]
     if a.skip_all_cores:

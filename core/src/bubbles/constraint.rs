@@ -46,6 +46,13 @@ pub trait Carrier: Sync {
     /// Whether the entity is flat, so (u,v) orientation equals model-space
     /// orientation.
     fn planar(&self) -> bool;
+    /// The model-space length of the parameter step `duv` taken at
+    /// `params`, to first order (|S_u·du + S_v·dv|); `None` where the
+    /// carrier has no parameters or they degenerate there. Unlike a chord,
+    /// it does not shrink when the step wraps around a periodic surface.
+    fn tangent_length(&self, _params: [f64; 2], _duv: [f64; 2]) -> Option<f64> {
+        None
+    }
 }
 
 /// Solves the first-fundamental-form system for the parameter step of a

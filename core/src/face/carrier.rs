@@ -138,6 +138,20 @@ impl Carrier for OnFace<'_> {
     fn point(&self, params: [f64; 2]) -> P3 {
         self.surface.point(params[0], params[1])
     }
+    fn tangent_length(&self, params: [f64; 2], duv: [f64; 2]) -> Option<f64> {
+        let (su, sv) = match &self.plane {
+            Some(pl) => (pl.su, pl.sv),
+            None => {
+                let dv = self.surface.derivs(params[0], params[1]);
+                if self.degenerate(params, &dv.su, &dv.sv) {
+                    return None;
+                }
+                (dv.su, dv.sv)
+            }
+        };
+        let l = (su * duv[0] + sv * duv[1]).norm();
+        l.is_finite().then_some(l)
+    }
     fn normal(&self, params: [f64; 2]) -> V3 {
         let dv = self.tangent_derivs(params);
         dv.su.cross(&dv.sv).normalize()

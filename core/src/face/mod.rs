@@ -45,9 +45,13 @@ use region::Region;
 /// The face pipeline's tuning, each value with how it was measured.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FaceParams {
-    /// Seed a boundary layer before the quadtree lattice (measured: no gain
-    /// on cases A–C with the current relaxation, so off; kept for surfaces).
-    pub apex_layer: bool,
+    /// Seed a boundary layer before the quadtree lattice where the spacing
+    /// is uniform. Measured on `../shared/realstep` as surfaces at diag/25:
+    /// mean radius ratio +0.005 to +0.012 on most parts, whose faces are a
+    /// few spacings across, so the boundary layer is much of the mesh; on
+    /// the graded cases B and C it cost 0.005 of the mean and 0.06 of the
+    /// minimum, so not where the spacing varies.
+    pub apex_layer_uniform: bool,
     /// Bubbles closer than this many spacings to a singular point of the
     /// parametrization are connected in their tangent plane (a cap), not in
     /// (u,v).
@@ -67,7 +71,7 @@ pub(crate) struct FaceParams {
 impl FaceParams {
     /// The values in use.
     pub const DEFAULT: FaceParams = FaceParams {
-        apex_layer: false,
+        apex_layer_uniform: true,
         cap_radius: 5.0,
         improve_rounds: 6,
         lattice_mean_q: 0.999,
@@ -550,7 +554,8 @@ impl<'a> FaceJob<'a> {
             .map(|&id| mesh.nodes[id as usize].pos)
             .collect();
         let fixed_d: Vec<f64> = boundary.ids.iter().map(|&id| node_d[id as usize]).collect();
-        let apex = if PRM.apex_layer {
+        let with_apex = PRM.apex_layer_uniform && spacing.constant().is_some();
+        let apex = if with_apex {
             placement::apex_seeds(
                 &carrier,
                 &boundary.directed,
@@ -587,7 +592,7 @@ impl<'a> FaceJob<'a> {
         let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
-        let check_seeds = spacing.constant().is_none() || PRM.apex_layer || !surface.is_planar();
+        let check_seeds = spacing.constant().is_none() || with_apex || !surface.is_planar();
         let seeds = placement::uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
         let mut sys = System::with_fixed(
             carrier,

@@ -30,7 +30,11 @@ pub struct Seed {
 /// of the corner pairs (1,2), (2,3), (3,4), (2,4) is farther apart in model
 /// space than `SPLIT`·(d_i + d_j)/2 (eq. 4.1.3–4.1.4, with the factor SPLIT
 /// explained below); bubbles go on the corners of the leaves that lie
-/// inside the entity.
+/// inside the entity. A pair whose first-order length at the cell's centre
+/// is over twice that threshold splits the cell too, whatever its chord:
+/// around a periodic surface a root cell many periods wide has corners at
+/// nearly one point (a hole's face of 6 by 5 spacings once got no interior
+/// bubble at all).
 ///
 /// `SPLIT` = √2 instead of the thesis's 1: leaves then have sides in
 /// (d/√2, √2·d] instead of (d/2, d], so the stage-1 density is right on
@@ -134,9 +138,22 @@ pub fn oblique_quadtree<C: Carrier>(
                     };
                     cs.push(Corner { p, d });
                 }
-                [(0, 1), (1, 2), (2, 3), (1, 3)]
-                    .iter()
-                    .any(|&(a, b)| (cs[a].p - cs[b].p).norm() > SPLIT * 0.5 * (cs[a].d + cs[b].d))
+                // the chord of a pair, or its tangent length at the cell's
+                // centre where that is over twice the threshold: a chord
+                // wrapping around a periodic surface is short however far
+                // apart the corners are along it
+                let centre = [
+                    0.5 * (cuv[0][0] + cuv[2][0]),
+                    0.5 * (cuv[0][1] + cuv[2][1]),
+                ];
+                [(0, 1), (1, 2), (2, 3), (1, 3)].iter().any(|&(a, b)| {
+                    let limit = SPLIT * 0.5 * (cs[a].d + cs[b].d);
+                    let duv = [cuv[b][0] - cuv[a][0], cuv[b][1] - cuv[a][1]];
+                    (cs[a].p - cs[b].p).norm() > limit
+                        || carrier
+                            .tangent_length(centre, duv)
+                            .is_some_and(|t| t > 2.0 * limit)
+                })
             }
         };
         if split && lev < MAX_LEVEL {
@@ -360,5 +377,64 @@ mod tests {
         let e = expected(&graded, 0.2, 0.8);
         let n = seeds.iter().filter(|s| inside(s, 0.2, 0.8)).count() as f64;
         assert!((n - e).abs() < 0.25 * e, "{n} seeds, {e:.0} expected");
+    }
+
+    /// Half a cylinder of radius 16 around z, u ∈ [0, π] (radians), v ∈
+    /// [−21.84, 23.16]: a hole's face of `as_0042` (realstep).
+    struct HalfCylinder;
+
+    impl Carrier for HalfCylinder {
+        fn entity(&self) -> crate::model::EntityRef {
+            crate::model::EntityRef::new(2, 0)
+        }
+        fn advance(&self, _: &P3, _: [f64; 2], _: &crate::geom::V3) -> Option<(P3, [f64; 2])> {
+            None
+        }
+        fn frame(&self, p: [f64; 2]) -> (crate::geom::V3, crate::geom::V3) {
+            (crate::geom::V3::new(-p[0].sin(), p[0].cos(), 0.0), crate::geom::V3::z())
+        }
+        fn contains(&self, p: [f64; 2]) -> bool {
+            (0.0..=std::f64::consts::PI).contains(&p[0]) && (-21.84..=23.16).contains(&p[1])
+        }
+        fn point(&self, p: [f64; 2]) -> P3 {
+            P3::new(16.0 * p[0].cos(), 16.0 * p[0].sin(), p[1])
+        }
+        fn normal(&self, p: [f64; 2]) -> crate::geom::V3 {
+            crate::geom::V3::new(p[0].cos(), p[0].sin(), 0.0)
+        }
+        fn planar(&self) -> bool {
+            false
+        }
+        fn tangent_length(&self, p: [f64; 2], duv: [f64; 2]) -> Option<f64> {
+            let (su, sv) = (self.frame(p).0 * 16.0, crate::geom::V3::z());
+            Some((su * duv[0] + sv * duv[1]).norm())
+        }
+    }
+
+    /// The quadtree's root cell around a cylinder is many periods wide in
+    /// u (radians against millimetres in v), so its corners' chords are
+    /// short and it was never split: a face of 6 by 5 spacings got two
+    /// seeds, both on its boundary, and was connected from its boundary
+    /// alone (`as_0042`, q 0.5). Splitting on the tangent length gives the
+    /// face its lattice.
+    #[test]
+    fn quadtree_fills_a_cylinder_whose_root_cell_wraps_around() {
+        let d = 8.452;
+        let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
+        let (lo, hi) = ([0.0, -21.84], [std::f64::consts::PI, 23.16]);
+        let seeds = oblique_quadtree(&HalfCylinder, lo, hi, None, d, &mut d_at).unwrap();
+        // every point of the face is within a spacing of a seed (the
+        // surplus of an anisotropic (u,v) is stage 1's crowding check's)
+        for i in 0..=20 {
+            for j in 0..=20 {
+                let uv = [
+                    lo[0] + (hi[0] - lo[0]) * i as f64 / 20.0,
+                    lo[1] + (hi[1] - lo[1]) * j as f64 / 20.0,
+                ];
+                let p = HalfCylinder.point(uv);
+                let near = seeds.iter().map(|s| (s.pos - p).norm()).fold(f64::INFINITY, f64::min);
+                assert!(near < d, "(u,v) = {uv:?} is {near} from the nearest of {} seeds", seeds.len());
+            }
+        }
     }
 }
