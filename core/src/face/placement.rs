@@ -142,10 +142,7 @@ pub fn oblique_quadtree<C: Carrier>(
                 // centre where that is over twice the threshold: a chord
                 // wrapping around a periodic surface is short however far
                 // apart the corners are along it
-                let centre = [
-                    0.5 * (cuv[0][0] + cuv[2][0]),
-                    0.5 * (cuv[0][1] + cuv[2][1]),
-                ];
+                let centre = [0.5 * (cuv[0][0] + cuv[2][0]), 0.5 * (cuv[0][1] + cuv[2][1])];
                 [(0, 1), (1, 2), (2, 3), (1, 3)].iter().any(|&(a, b)| {
                     let limit = SPLIT * 0.5 * (cs[a].d + cs[b].d);
                     let duv = [cuv[b][0] - cuv[a][0], cuv[b][1] - cuv[a][1]];
@@ -391,7 +388,10 @@ mod tests {
             None
         }
         fn frame(&self, p: [f64; 2]) -> (crate::geom::V3, crate::geom::V3) {
-            (crate::geom::V3::new(-p[0].sin(), p[0].cos(), 0.0), crate::geom::V3::z())
+            (
+                crate::geom::V3::new(-p[0].sin(), p[0].cos(), 0.0),
+                crate::geom::V3::z(),
+            )
         }
         fn contains(&self, p: [f64; 2]) -> bool {
             (0.0..=std::f64::consts::PI).contains(&p[0]) && (-21.84..=23.16).contains(&p[1])
@@ -432,8 +432,15 @@ mod tests {
                     lo[1] + (hi[1] - lo[1]) * j as f64 / 20.0,
                 ];
                 let p = HalfCylinder.point(uv);
-                let near = seeds.iter().map(|s| (s.pos - p).norm()).fold(f64::INFINITY, f64::min);
-                assert!(near < d, "(u,v) = {uv:?} is {near} from the nearest of {} seeds", seeds.len());
+                let near = seeds
+                    .iter()
+                    .map(|s| (s.pos - p).norm())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    near < d,
+                    "(u,v) = {uv:?} is {near} from the nearest of {} seeds",
+                    seeds.len()
+                );
             }
         }
     }
