@@ -190,6 +190,12 @@ struct MeshArgs {
     /// Upper bound on stage-2 time steps per face.
     #[arg(long, default_value_t = 600)]
     max_steps: usize,
+    /// At least N nodes per full turn of a curved edge: where the size is
+    /// larger than 2πρ/N (ρ the edge's radius of curvature) the edge takes
+    /// 2πρ/N and the faces around it grade back to the size (Gmsh's
+    /// Mesh.MinimumCirclePoints). 0 keeps the size as given.
+    #[arg(long, value_name = "N", default_value_t = bubblemesh_core::DEFAULT_CIRCLE_POINTS)]
+    circle_points: u32,
     /// Threads for stage 2's force and move computation (the result does
     /// not depend on it). Default: every core; 1 runs single-threaded; at
     /// most 4 per core (at least 64 allowed, never more than 1024).
@@ -410,6 +416,7 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     if !a.quiet {
         said.extend(summary(&a, &report, step_info.as_ref(), write_s));
         said.extend(warm.as_ref().map(|w| w.said(&mesh)));
+        said.extend(bubblemesh_run::circle_points_note(&model, &report));
         said.push(q.table());
     }
     if let Some(path) = &a.save_state {
@@ -502,6 +509,7 @@ fn engine_options(a: &MeshArgs, model: &Model, threads: usize) -> Result<Options
         },
         max_steps: a.max_steps,
         threads,
+        circle_points: a.circle_points,
     };
     let opts = settings.options(&a.input, model);
     // the global pool is built once per process (here, its only builder)

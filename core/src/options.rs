@@ -134,7 +134,7 @@ pub enum VolumeLattice {
 }
 
 /// Engine options.
-#[derive(Clone, Default)]
+#[derive(Clone)]
 pub struct Options {
     /// Highest dimension to mesh (default: the model's).
     pub dim: Option<u8>,
@@ -152,6 +152,28 @@ pub struct Options {
     /// Re-meshing (§4.8): the old bubbles each matched entity starts from
     /// ([`crate::remesh::plan`]); `None` meshes from scratch.
     pub warm: Option<Arc<WarmStart>>,
+    /// At least this many nodes per full turn of a curved edge, the spacing
+    /// graded away from it ([`crate::circle_points`]); 0 turns it off.
+    /// Default [`DEFAULT_CIRCLE_POINTS`].
+    pub circle_points: u32,
+}
+
+/// Nodes per full turn of a curved edge at the least, by default (Gmsh's
+/// `Mesh.MinimumCirclePoints` default).
+pub const DEFAULT_CIRCLE_POINTS: u32 = 7;
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            dim: None,
+            fast: false,
+            relax: RelaxSettings::default(),
+            volume_lattice: VolumeLattice::default(),
+            observer: None,
+            warm: None,
+            circle_points: DEFAULT_CIRCLE_POINTS,
+        }
+    }
 }
 
 impl std::fmt::Debug for Options {
@@ -162,6 +184,7 @@ impl std::fmt::Debug for Options {
             .field("relax", &self.relax)
             .field("volume_lattice", &self.volume_lattice)
             .field("warm", &self.warm.is_some())
+            .field("circle_points", &self.circle_points)
             .finish()
     }
 }

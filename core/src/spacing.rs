@@ -40,6 +40,12 @@ pub trait Spacing: Send + Sync {
     fn constant(&self) -> Option<f64> {
         None
     }
+    /// `Some(d)` when the spacing is d everywhere on the entity `e` (the
+    /// engine's uniform paths for that entity: lattice starts, no
+    /// re-evaluation in stage 2); by default [`Spacing::constant`].
+    fn constant_on(&self, _e: EntityRef) -> Option<f64> {
+        self.constant()
+    }
 }
 
 /// A boxed spacing is a spacing (so combinators nest).
@@ -52,6 +58,9 @@ impl<S: Spacing + ?Sized> Spacing for Box<S> {
     }
     fn constant(&self) -> Option<f64> {
         (**self).constant()
+    }
+    fn constant_on(&self, e: EntityRef) -> Option<f64> {
+        (**self).constant_on(e)
     }
 }
 
@@ -393,6 +402,11 @@ impl<S: Spacing> Spacing for Clamped<S> {
     }
     fn constant(&self) -> Option<f64> {
         self.inner.constant().map(|c| c.clamp(self.min, self.max))
+    }
+    fn constant_on(&self, e: EntityRef) -> Option<f64> {
+        self.inner
+            .constant_on(e)
+            .map(|c| c.clamp(self.min, self.max))
     }
 }
 

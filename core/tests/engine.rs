@@ -274,3 +274,55 @@ fn bad_spacing_is_reported() {
         assert!(err.contains("spacing"), "{expr}: {err}");
     }
 }
+
+/// A hole of radius 0.05 in a unit square at d = 0.2: without the cap its
+/// circle gets two segments at most (its circumference is 0.31); with
+/// `circle_points` = 7 (the default) it gets at least 7, the faces grade
+/// back to d, nothing is refined, and the report names the edge. With
+/// `circle_points` = 0 the circle keeps d.
+#[test]
+fn a_small_hole_gets_seven_nodes_per_turn_at_a_coarse_size() {
+    let mut m = bubblemesh_core::Model::default();
+    let outer = common::polygon_loop(&mut m, &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let hole = common::circle_hole(&mut m, [0.5, 0.5], 0.05);
+    common::face(&mut m, vec![outer, hole]);
+    let circle = m.edges.len() as u32 - 1;
+    let on_circle = |mesh: &Mesh| {
+        mesh.lines
+            .iter()
+            .filter(|l| l.entity == EntityRef::new(1, circle))
+            .count()
+    };
+    let (mesh, report) = mesh_model(&m, &Constant(0.2), &Options::default()).unwrap();
+    assert!(
+        on_circle(&mesh) >= 7,
+        "{} segments on the hole",
+        on_circle(&mesh)
+    );
+    assert!(report.refined.is_empty(), "{:?}", report.refined);
+    let cp = report.circle_points.as_ref().expect("the cap binds");
+    assert_eq!(cp.edges.len(), 1);
+    assert_eq!(cp.edges[0].edge, circle);
+    assert!((cp.edges[0].radius - 0.05).abs() < 1e-9);
+    let q = common::radius_ratios(&mesh);
+    let worst = q.iter().cloned().fold(1.0, f64::min);
+    assert!(worst > 0.5, "worst radius ratio {worst}");
+    // far from the hole the spacing is d: the outer sides keep 5 segments
+    let outer_segments = mesh.lines.iter().filter(|l| l.entity.id < circle).count();
+    assert!(
+        outer_segments <= 4 * 6,
+        "{outer_segments} segments on the sides"
+    );
+
+    let off = Options {
+        circle_points: 0,
+        ..Default::default()
+    };
+    let (mesh0, report0) = mesh_model(&m, &Constant(0.2), &off).unwrap();
+    assert!(
+        on_circle(&mesh0) < 7,
+        "{} segments without the cap",
+        on_circle(&mesh0)
+    );
+    assert!(report0.circle_points.is_none());
+}

@@ -408,6 +408,9 @@ pub struct EngineSettings {
     pub max_steps: usize,
     /// The threads the run has ([`thread_count`]).
     pub threads: usize,
+    /// `--circle-points`: at least this many nodes per full turn of a
+    /// curved edge (0: the requested spacing as it is).
+    pub circle_points: u32,
 }
 
 impl Default for EngineSettings {
@@ -419,6 +422,7 @@ impl Default for EngineSettings {
             integrator: Integrator::Euler,
             max_steps: 600,
             threads: thread_count(None),
+            circle_points: bubblemesh_core::DEFAULT_CIRCLE_POINTS,
         }
     }
 }
@@ -440,6 +444,7 @@ impl EngineSettings {
             } else {
                 VolumeLattice::Auto
             },
+            circle_points: self.circle_points,
             ..Default::default()
         };
         opts.relax.integrator = self.integrator;
@@ -586,6 +591,42 @@ pub fn stage_output(
 /// Stages a file of this run (written at commit).
 pub fn stage_bytes(out: &mut OutputSet, path: &Path, bytes: &[u8]) -> Result<(), Error> {
     out.bytes(path, bytes).map_err(Error::Write)
+}
+
+/// The note that curved edges were meshed finer than asked to keep
+/// `--circle-points` nodes per turn (`bubblemesh_core::circle_points`).
+pub fn circle_points_note(model: &Model, report: &Report) -> Option<String> {
+    let c = report.circle_points.as_ref()?;
+    if let Some(why) = &c.dropped {
+        let why: String = why.chars().take(200).collect();
+        return Some(format!(
+            "note: meshed at the size as given: {} nodes per turn of curved edges gave a face no \
+             valid mesh ({why})",
+            c.n
+        ));
+    }
+    let finest = c
+        .edges
+        .iter()
+        .min_by(|a, b| (a.d / a.requested).total_cmp(&(b.d / b.requested)))?;
+    let edge = model.describe(bubblemesh_core::EntityRef::new(1, finest.edge));
+    let mut line = format!(
+        "note: {} curved edge(s) meshed finer than the size to keep {} nodes per turn, the finest \
+         {edge} (radius {}) at {} instead of {}; the faces around them grade back to the size \
+         (--circle-points 0 keeps the size)",
+        c.edges.len(),
+        c.n,
+        significant(finest.radius, 3),
+        significant(finest.d, 3),
+        significant(finest.requested, 3),
+    );
+    if !c.released.is_empty() {
+        line.push_str(&format!(
+            "; {} face(s) failed with the finer spacing and were meshed with the size inside",
+            c.released.len()
+        ));
+    }
+    Some(line)
 }
 
 /// The warnings of faces and places the engine meshed finer than asked

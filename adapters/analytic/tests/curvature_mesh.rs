@@ -51,7 +51,13 @@ fn curvature_spacing_bounds_the_chord_error_with_fewer_triangles() {
     let eps = 0.001;
     let (d_min, d_max) = (0.002, 0.2);
     let curv = Curvature::new(model.clone(), eps, d_min, d_max);
-    let (adaptive, _) = mesh_model(&model, &curv, &Options::default()).unwrap();
+    // the spacings compared are the curvature field's and a constant one
+    // as given, without the nodes-per-turn cap on curved edges
+    let opts = Options {
+        circle_points: 0,
+        ..Default::default()
+    };
+    let (adaptive, _) = mesh_model(&model, &curv, &opts).unwrap();
     let dev = max_deviation(&adaptive, surface.as_ref());
     assert!(dev <= 1.1 * eps, "adaptive mesh deviates {dev} > 1.1 eps");
 
@@ -73,14 +79,24 @@ fn curvature_spacing_bounds_the_chord_error_with_fewer_triangles() {
     // maximal error is the coarsest one that still keeps within `dev`, found
     // by growing d by 10 % while it does
     let uniform_at = |d: f64| {
-        let (m, _) = mesh_model(&model, &Constant(d), &Options::default()).unwrap();
+        let (m, _) = mesh_model(&model, &Constant(d), &opts).unwrap();
         let dev = max_deviation(&m, surface.as_ref());
         (m, dev)
     };
-    let (mut uniform, dev_u) = uniform_at(d_uniform);
+    // a uniform mesh at that spacing may still deviate a little more than
+    // the adaptive one where its lattice lies across the bump: it is made
+    // finer until it does not, so the comparison is at equal error
+    let (mut uniform, mut dev_u) = uniform_at(d_uniform);
+    for _ in 0..12 {
+        if dev_u <= dev {
+            break;
+        }
+        d_uniform /= 1.1;
+        (uniform, dev_u) = uniform_at(d_uniform);
+    }
     assert!(
-        dev_u <= 1.1 * eps,
-        "uniform mesh at the smallest spacing deviates {dev_u}"
+        dev_u <= dev,
+        "no uniform mesh down to the smallest spacing / 3 is within {dev} ({dev_u})"
     );
     for _ in 0..12 {
         let (m, dev_m) = uniform_at(d_uniform * 1.1);

@@ -324,7 +324,7 @@ impl<'a, C: Carrier> System<'a, C> {
                 Move::Blocked => self.vel[i] = V3::zeros(),
             }
             st.awake.push(i as u32);
-            if self.spacing.constant().is_none() {
+            if self.uniform().is_none() {
                 st.respace.push(i as u32);
             }
             let moved = (self.pos[i] - st.nb.built_pos[i]).norm();
@@ -475,7 +475,7 @@ impl<'a, C: Carrier> System<'a, C> {
                     self.vel[i] = V3::zeros();
                 }
             }
-            if self.spacing.constant().is_none() {
+            if self.uniform().is_none() {
                 self.d[i] = self.spacing_at(&self.pos[i], self.params[i])?;
             }
         }

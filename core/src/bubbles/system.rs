@@ -131,6 +131,11 @@ impl<'a, C: Carrier> System<'a, C> {
         fixed_ids: Vec<u32>,
     ) -> Self {
         let n_fixed = fixed_ids.len();
+        let pressure = if spacing.constant_on(carrier.entity()).is_some() {
+            1.0
+        } else {
+            PRESSURE
+        };
         System {
             carrier,
             spacing,
@@ -141,11 +146,7 @@ impl<'a, C: Carrier> System<'a, C> {
             vel: vec![V3::zeros(); n_fixed],
             d,
             fixed_ids,
-            pressure: if spacing.constant().is_some() {
-                1.0
-            } else {
-                PRESSURE
-            },
+            pressure,
         }
     }
 
@@ -157,6 +158,12 @@ impl<'a, C: Carrier> System<'a, C> {
     #[inline]
     pub fn is_kept(&self, i: usize) -> bool {
         i < self.n_fixed && self.fixed_ids.get(i) == Some(&KEPT_ID)
+    }
+
+    /// `Some(d)` when the spacing is d everywhere on this entity (then a
+    /// moved bubble keeps its diameter).
+    pub fn uniform(&self) -> Option<f64> {
+        self.spacing.constant_on(self.carrier.entity())
     }
 
     /// d at a point of this entity, checked finite and > 0.

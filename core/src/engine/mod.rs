@@ -43,7 +43,9 @@ use crate::volume;
 pub use crate::bubbles::dynamics::Integrator;
 pub use crate::bubbles::system::{EnergySample, RelaxSettings, RelaxStats};
 pub use crate::error::MeshError;
-pub use crate::options::{Event, ObserverFn, Options, Timings, VolumeLattice};
+pub use crate::options::{
+    Event, ObserverFn, Options, Timings, VolumeLattice, DEFAULT_CIRCLE_POINTS,
+};
 
 /// What the run did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -81,6 +83,11 @@ pub struct Report {
     /// without being joined ([`crate::verify::touching_parts`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub touching: Option<crate::verify::Touching>,
+    /// Edges meshed finer than requested to keep the least number of
+    /// nodes per turn, and the faces graded from them
+    /// ([`crate::circle_points`]); absent where none was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub circle_points: Option<crate::circle_points::CirclePointsReport>,
 }
 
 impl Report {
@@ -108,14 +115,27 @@ pub fn mesh_model(
     let t_start = Instant::now();
     let mut refinement = refine::Refinement::new(model);
     let mut rounds = 0;
+    // edges, faces and vertices take at least `circle_points` nodes per
+    // turn of a curved edge; volumes are packed with `spacing` itself
+    let mut capped = crate::circle_points::CirclePoints::new(model, spacing, opts.circle_points);
+    // the cap's report once it was dropped (see below)
+    let mut dropped: Option<crate::circle_points::CirclePointsReport> = None;
     loop {
         rounds += 1;
+        let boundary_spacing: &dyn Spacing = match &capped {
+            Some(c) => c,
+            None => spacing,
+        };
         let refined = refine::Refined {
-            inner: spacing,
+            inner: boundary_spacing,
             refinement: &refinement,
         };
         match mesh_once(model, &refined, spacing, opts, &refinement) {
             Ok((mesh, mut report)) => {
+                report.circle_points = capped
+                    .as_ref()
+                    .map(|c| c.report().clone())
+                    .or(dropped.take());
                 report.refined = refinement.faces(model);
                 report.refined_places = refinement.places();
                 report.refinement_rounds = rounds - 1;
@@ -124,15 +144,50 @@ pub fn mesh_model(
             }
             Err(failed) => {
                 let reason = failed.error.to_string();
-                let bumped = if failed.spots.is_empty() {
-                    refinement.bump(
-                        model,
-                        &failed.faces,
-                        &failed.reasons,
-                        &failed.edges,
-                        &reason,
-                    )
-                } else {
+                // a released face that fails again (as_tie_rod.step's narrow
+                // fillets fold with their capped neighbours around them):
+                // the cap is dropped for the whole model, which is then
+                // meshed as without it
+                if let Some(c) = capped.as_ref() {
+                    if failed.spots.is_empty() && failed.faces.iter().any(|&f| c.is_released(f)) {
+                        let mut r = c.report().clone();
+                        r.dropped = Some(reason.clone());
+                        dropped = Some(r);
+                        capped = None;
+                        continue;
+                    }
+                }
+                // a face graded finer by the circle-point cap that fails is
+                // first meshed again with the requested spacing inside (its
+                // capped edges stay): a narrow fillet of small radius meshes
+                // from its boundary at the requested spacing, while the
+                // cap's finer spacing puts interior bubbles on its tight bend
+                let released: Vec<u32> = match capped.as_mut() {
+                    Some(c) if failed.spots.is_empty() => failed
+                        .faces
+                        .iter()
+                        .copied()
+                        .filter(|&f| c.release(model, f, &reason))
+                        .collect(),
+                    _ => Vec::new(),
+                };
+                let (faces, reasons): (Vec<u32>, Vec<String>) = failed
+                    .faces
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, f)| !released.contains(f))
+                    .map(|(k, &f)| {
+                        (
+                            f,
+                            failed
+                                .reasons
+                                .get(k)
+                                .cloned()
+                                .unwrap_or_else(|| reason.clone()),
+                        )
+                    })
+                    .unzip();
+                let bumped = if !failed.spots.is_empty() {
                     let d_at = |p: &crate::geom::P3| {
                         spacing.spacing(&SpacingQuery {
                             point: *p,
@@ -141,11 +196,15 @@ pub fn mesh_model(
                         })
                     };
                     refinement.bump_spots(&failed.spots, d_at, &reason)
+                } else if !faces.is_empty() || released.is_empty() {
+                    refinement.bump(model, &faces, &reasons, &failed.edges, &reason)
+                } else {
+                    false
                 };
                 if failed.faces.is_empty() && failed.edges.is_empty() && failed.spots.is_empty()
                     || opts.fast
                     || rounds > refine::MAX_ROUNDS
-                    || !bumped
+                    || (!bumped && released.is_empty())
                 {
                     return Err(failed.error);
                 }

@@ -363,6 +363,13 @@ impl Spacing for Refined<'_> {
             None
         }
     }
+    fn constant_on(&self, e: crate::model::EntityRef) -> Option<f64> {
+        if self.refinement.is_empty() {
+            self.inner.constant_on(e)
+        } else {
+            None
+        }
+    }
 }
 
 /// The grid cell of `p` for cells of size `h`.

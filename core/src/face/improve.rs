@@ -450,7 +450,7 @@ fn lift_bubbles<C: Carrier>(
             }
         }
         if best > start {
-            if sys.spacing.constant().is_none() {
+            if sys.uniform().is_none() {
                 sys.d[i] = sys.spacing_at(&sys.pos[i], sys.params[i])?;
             }
             moved.push(i);
@@ -536,7 +536,7 @@ fn relax_edges<C: Carrier>(
                 if ok {
                     sys.pos[i] = p;
                     sys.params[i] = uv;
-                    if sys.spacing.constant().is_none() {
+                    if sys.uniform().is_none() {
                         sys.d[i] = sys.spacing_at(&p, uv)?;
                     }
                     break;

@@ -50,7 +50,11 @@ pub(crate) struct FaceParams {
     /// mean radius ratio +0.005 to +0.012 on most parts, whose faces are a
     /// few spacings across, so the boundary layer is much of the mesh; on
     /// the graded cases B and C it cost 0.005 of the mean and 0.06 of the
-    /// minimum, so not where the spacing varies.
+    /// minimum, so not where the spacing varies. Off: a local re-meshing
+    /// (`--region`) of a face packed with the layer lost a boundary segment
+    /// (examples/two_faces.toml, faces:1 at 0.1 then 0.06) and a warm
+    /// start fell 0.05 below the minimum radius ratio from scratch
+    /// (core/tests/remesh.rs); on again once the warm path keeps the layer.
     pub apex_layer_uniform: bool,
     /// Bubbles closer than this many spacings to a singular point of the
     /// parametrization are connected in their tangent plane (a cap), not in
@@ -71,7 +75,7 @@ pub(crate) struct FaceParams {
 impl FaceParams {
     /// The values in use.
     pub const DEFAULT: FaceParams = FaceParams {
-        apex_layer_uniform: true,
+        apex_layer_uniform: false,
         cap_radius: 5.0,
         improve_rounds: 6,
         lattice_mean_q: 0.999,
@@ -516,19 +520,22 @@ impl<'a> FaceJob<'a> {
         let (surface, spacing, fe) = (self.surface, self.inputs.spacing, self.fe);
         let node_d = self.inputs.node_d;
         let (lo, hi) = carrier.region.bbox();
-        let uniform_leaf = spacing.constant().filter(|_| surface.is_planar()).map(|d| {
-            let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-            let dv = surface.derivs(c[0], c[1]);
-            // parameter length of one spacing along u (1 on a plane)
-            d / dv.su.norm().max(f64::MIN_POSITIVE)
-        });
+        let uniform_leaf = spacing
+            .constant_on(fe)
+            .filter(|_| surface.is_planar())
+            .map(|d| {
+                let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+                let dv = surface.derivs(c[0], c[1]);
+                // parameter length of one spacing along u (1 on a plane)
+                d / dv.su.norm().max(f64::MIN_POSITIVE)
+            });
         let mut d_at = placement::spacing_on(spacing, fe);
         let mut d_outside = boundary
             .ids
             .iter()
             .map(|&id| node_d[id as usize])
-            .fold(f64::INFINITY, f64::min);
-        if !d_outside.is_finite() {
+            .fold([f64::INFINITY, 0.0], |[lo, hi], d| [lo.min(d), hi.max(d)]);
+        if !d_outside[0].is_finite() {
             // a closed face has no boundary bubbles: sample the spacing on it
             for k in 0..=8 {
                 for l in 0..=8 {
@@ -538,10 +545,15 @@ impl<'a> FaceJob<'a> {
                     ];
                     if carrier.contains(uv) {
                         let p = carrier.point(uv);
-                        d_outside = d_outside.min(d_at(&p, uv)?);
+                        let d = d_at(&p, uv)?;
+                        d_outside = [d_outside[0].min(d), d_outside[1].max(d)];
                     }
                 }
             }
+        }
+        if !(d_outside[1] >= d_outside[0]) {
+            // nothing sampled: outside corners never split a cell
+            d_outside = [f64::INFINITY; 2];
         }
         let seeds =
             placement::oblique_quadtree(&carrier, lo, hi, uniform_leaf, d_outside, &mut d_at)?;
@@ -554,7 +566,8 @@ impl<'a> FaceJob<'a> {
             .map(|&id| mesh.nodes[id as usize].pos)
             .collect();
         let fixed_d: Vec<f64> = boundary.ids.iter().map(|&id| node_d[id as usize]).collect();
-        let with_apex = PRM.apex_layer_uniform && spacing.constant().is_some();
+        let uniform = spacing.constant_on(fe);
+        let with_apex = PRM.apex_layer_uniform && uniform.is_some();
         let apex = if with_apex {
             placement::apex_seeds(
                 &carrier,
@@ -592,7 +605,7 @@ impl<'a> FaceJob<'a> {
         let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
-        let check_seeds = spacing.constant().is_none() || with_apex || !surface.is_planar();
+        let check_seeds = uniform.is_none() || with_apex || !surface.is_planar();
         let seeds = placement::uncrowded(all, &fixed_pos, &fixed_d, check_seeds);
         let mut sys = System::with_fixed(
             carrier,
@@ -623,7 +636,7 @@ impl<'a> FaceJob<'a> {
         let opts = self.inputs.opts;
         // a uniformly spaced face that only bounds a volume stops earlier
         // (see system::PLATEAU_BOUNDARY)
-        let settings = if self.bounds_volume && self.inputs.spacing.constant().is_some() {
+        let settings = if self.bounds_volume && self.inputs.spacing.constant_on(self.fe).is_some() {
             system::RelaxSettings {
                 plateau: opts.relax.plateau.max(system::PLATEAU_BOUNDARY),
                 ..opts.relax
@@ -725,7 +738,7 @@ impl<'a> FaceJob<'a> {
         !self.inputs.opts.fast
             && !self.bounds_volume
             && self.surface.is_planar()
-            && self.inputs.spacing.constant().is_none()
+            && self.inputs.spacing.constant_on(self.fe).is_none()
             && isometric(self.surface, lo, hi)
     }
 

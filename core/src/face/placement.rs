@@ -41,13 +41,18 @@ pub struct Seed {
 /// average instead of up to four times too high. With a uniform spacing
 /// `uniform` = Some(d/scale) sets the root size to d·2^k so the leaves are
 /// exactly d: the hexagonal lattice of Fig. 4.1a. Corners outside the
-/// entity use `d_outside` (the caller passes the smallest boundary spacing).
+/// entity use `d_outside` = [least, largest] boundary spacing: the least
+/// in a cell with a corner inside (so cells straddling the boundary are as
+/// fine as the boundary), the largest in a cell wholly outside. A thin
+/// diagonal band in (u,v) leaves most of its box outside; refining all of
+/// that to the boundary's least spacing (tiny where one of its edges is a
+/// small circle) made millions of cells.
 pub fn oblique_quadtree<C: Carrier>(
     carrier: &C,
     lo: [f64; 2],
     hi: [f64; 2],
     uniform_leaf: Option<f64>,
-    d_outside: f64,
+    d_outside: [f64; 2],
     d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
     const SPLIT: f64 = std::f64::consts::SQRT_2;
@@ -126,16 +131,18 @@ pub fn oblique_quadtree<C: Carrier>(
                 lev < lev_leaf
             }
             None => {
+                let inside = cuv.map(|uv| carrier.contains(uv));
+                let outside_d = if inside.iter().any(|&i| i) {
+                    d_outside[0]
+                } else {
+                    d_outside[1]
+                };
                 let mut cs = Vec::with_capacity(4);
-                for uv in cuv {
+                for (uv, inside) in cuv.into_iter().zip(inside) {
                     let p = carrier.point(uv);
                     // the spacing is only asked inside the entity (it may be
-                    // undefined outside); outside corners use `d_outside`
-                    let d = if carrier.contains(uv) {
-                        d_at(&p, uv)?
-                    } else {
-                        d_outside
-                    };
+                    // undefined outside)
+                    let d = if inside { d_at(&p, uv)? } else { outside_d };
                     cs.push(Corner { p, d });
                 }
                 // the chord of a pair, or its tangent length at the cell's
@@ -355,7 +362,7 @@ mod tests {
         let d = 0.05;
         let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
         let seeds =
-            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], Some(d), d, &mut d_at).unwrap();
+            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], Some(d), [d, d], &mut d_at).unwrap();
         let e = expected(&|_| d, 0.0, 1.0);
         let n = seeds.len() as f64;
         assert!((n - e).abs() < 0.05 * e, "{n} seeds, {e:.0} expected");
@@ -369,8 +376,15 @@ mod tests {
         }
         // graded
         let mut d_at = |p: &P3, _: [f64; 2]| Ok(graded(p.x));
-        let seeds =
-            oblique_quadtree(&Square, [0.0, 0.0], [1.0, 1.0], None, 0.05, &mut d_at).unwrap();
+        let seeds = oblique_quadtree(
+            &Square,
+            [0.0, 0.0],
+            [1.0, 1.0],
+            None,
+            [0.05, 0.05],
+            &mut d_at,
+        )
+        .unwrap();
         let e = expected(&graded, 0.2, 0.8);
         let n = seeds.iter().filter(|s| inside(s, 0.2, 0.8)).count() as f64;
         assert!((n - e).abs() < 0.25 * e, "{n} seeds, {e:.0} expected");
@@ -422,7 +436,7 @@ mod tests {
         let d = 8.452;
         let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
         let (lo, hi) = ([0.0, -21.84], [std::f64::consts::PI, 23.16]);
-        let seeds = oblique_quadtree(&HalfCylinder, lo, hi, None, d, &mut d_at).unwrap();
+        let seeds = oblique_quadtree(&HalfCylinder, lo, hi, None, [d, d], &mut d_at).unwrap();
         // every point of the face is within a spacing of a seed (the
         // surplus of an anisotropic (u,v) is stage 1's crowding check's)
         for i in 0..=20 {

@@ -94,8 +94,13 @@ pub(super) fn stage1<'a>(
     let d_outside = fixed_d
         .iter()
         .chain(carried.iter().map(|s| &s.d))
-        .cloned()
-        .fold(f64::INFINITY, f64::min);
+        .fold([f64::INFINITY, 0.0], |[lo, hi], &d| [lo.min(d), hi.max(d)]);
+    // nothing fixed or carried: outside corners never split a cell
+    let d_outside = if d_outside[1] >= d_outside[0] {
+        d_outside
+    } else {
+        [f64::INFINITY; 2]
+    };
     let quad = placement::oblique_quadtree(&carrier, lo, hi, None, d_outside, &mut d_at)?;
     let mut near_pos = fixed_pos.clone();
     let mut near_d = fixed_d.clone();

@@ -166,6 +166,9 @@ impl Spacing for Scaled<'_> {
     fn constant(&self) -> Option<f64> {
         self.inner.constant().map(|c| c * self.factor)
     }
+    fn constant_on(&self, e: EntityRef) -> Option<f64> {
+        self.inner.constant_on(e).map(|c| c * self.factor)
+    }
 }
 
 /// Bubbles moving inside a volume.
@@ -259,7 +262,7 @@ pub(crate) fn lattice_seeds(
     ];
     let bcc = [V3::new(0.0, 0.0, 0.0), V3::new(0.5, 0.5, 0.5)];
     let mut jitter = 0.0;
-    if let Some(d) = spacing.constant() {
+    if let Some(d) = spacing.constant_on(entity) {
         let (basis, a): (&[V3], f64) = match lattice {
             Lattice::Fcc => (&fcc, std::f64::consts::SQRT_2 * d),
             Lattice::Bcc => {
@@ -598,7 +601,10 @@ pub(super) fn mesh_volume(
                 .and_then(|w| w.of(EntityRef::new(3, vi as u32)))
         })
         .flatten();
-    let mut lattice = match (opts.volume_lattice, spacing.constant()) {
+    let mut lattice = match (
+        opts.volume_lattice,
+        spacing.constant_on(EntityRef::new(3, vi as u32)),
+    ) {
         _ if warm.is_some() => Lattice::Fcc,
         (VolumeLattice::Auto, Some(_)) => Lattice::Bcc,
         _ => Lattice::Fcc,

@@ -1,0 +1,655 @@
+//! At least `n` nodes per full turn of a curved edge (Gmsh's
+//! `Mesh.MinimumCirclePoints`, whose default 7 is ours too).
+//!
+//! Where the requested spacing d is larger than 2πρ/n (ρ the radius of
+//! curvature of an edge that turns at least [`MIN_TURNING`]), the edge
+//! takes c = 2πρ/n, and every point within reach grows from it at the
+//! gradient [`GRADE`]:
+//!
+//! d'(x) = min(d(x), min_k (c_k + GRADE·|x − p_k|)),
+//!
+//! over samples p_k every c_k/2 along the capped stretches of the edges.
+//! Vertices, edges and faces take d'; volumes keep d (the engine packs
+//! them with the requested spacing, whose uniformity their lattice start
+//! needs), so only the volume's boundary is finer near such edges.
+//!
+//! Why: at the sizes engineers ask for (a part's diagonal / 20 to / 25), a
+//! hole of radius r < n·d/2π got one or two segments per half circle. Both
+//! halves of the hole then lay on one chord (two faces sharing a mesh edge
+//! on no model edge), the final check refused them and the faces were
+//! meshed again at an eighth of the spacing; where they passed, the hole's
+//! faces were slabs, the enclosed volume off by the hole's cross-section.
+//! A mesh that departs from the requested spacing here says so: the
+//! capped edges and the faces they grade are in the report
+//! ([`CirclePoints::report`]).
+//!
+//! A face the graded spacing cannot mesh is released
+//! ([`CirclePoints::release`]): on it, its edges and their vertices the
+//! requested spacing applies again (the engine does this before refining
+//! it); where a released face fails again the engine drops the cap for the
+//! whole model (`CirclePointsReport::dropped`).
+//!
+//! Invariant: d' ≤ d everywhere, d' > 0 and finite where d is; d' = d
+//! farther than (d − c)/GRADE from every capped edge, in volumes and inside
+//! released faces.
+
+use crate::curvature::curve_curvature;
+use crate::geom::P3;
+use crate::model::{EntityRef, Model};
+use crate::spacing::{Spacing, SpacingQuery};
+
+/// How fast the spacing grows away from a capped edge, per unit of
+/// distance (0.4: a spacing of c reaches 2c at 2.5c from the edge).
+pub const GRADE: f64 = 0.4;
+
+/// Edges turning less than this (radians, ∫κ ds) are not capped: one chord
+/// across a quarter arc (a fillet's end) stays a fair approximation, while
+/// capping it put nodes on the tight bend of narrow fillet faces that
+/// then folded (as_tie_rod.step). A half circle, the edge a hole is made
+/// of, turns π, and one chord across it collapses the hole.
+pub const MIN_TURNING: f64 = 0.75 * std::f64::consts::PI;
+
+/// Samples per spacing along a capped stretch: the spacing between them
+/// is c/2, so d' on the edge is within GRADE·c/4 (10 %) of its cap.
+const SAMPLES_PER_CAP: f64 = 2.0;
+
+/// The most samples one edge gets (a very long edge with a tiny cap is
+/// sampled more coarsely along its length; its cap stays exact at the
+/// samples).
+const MAX_SAMPLES_PER_EDGE: usize = 4096;
+
+/// A point of a capped edge and the spacing there.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    p: P3,
+    /// The cap 2πρ/n at `p`.
+    c: f64,
+    /// Beyond this distance c + GRADE·dist exceeds the requested spacing
+    /// (with a margin for a spacing that grows away from `p`).
+    reach: f64,
+}
+
+/// One edge whose spacing was capped, for the report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CappedEdge {
+    /// The edge id.
+    pub edge: u32,
+    /// Its name in the input, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Its smallest radius of curvature, in model units.
+    pub radius: f64,
+    /// The spacing it takes there (2πρ/n), in model units.
+    pub d: f64,
+    /// The requested spacing there.
+    pub requested: f64,
+}
+
+/// What the minimum of nodes per turn changed (the run's report).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct CirclePointsReport {
+    /// Nodes per full turn asked for.
+    pub n: u32,
+    /// Edges meshed finer than the requested spacing.
+    pub edges: Vec<CappedEdge>,
+    /// Faces whose spacing grows from a capped edge somewhere (finer than
+    /// requested near it).
+    pub faces: Vec<u32>,
+    /// Faces that failed with the graded spacing and were meshed with the
+    /// requested one inside (their capped edges kept), with the error.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub released: Vec<ReleasedFace>,
+    /// Set when a released face failed again: the whole model was then
+    /// meshed without the cap (the error it gave).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dropped: Option<String>,
+}
+
+/// A face meshed with the requested spacing inside after failing with the
+/// graded one.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ReleasedFace {
+    /// The face id.
+    pub face: u32,
+    /// The error it gave with the graded spacing.
+    pub reason: String,
+}
+
+/// The requested spacing with at least `n` nodes per turn of every curved
+/// edge (see the module docs).
+pub struct CirclePoints<'a> {
+    inner: &'a dyn Spacing,
+    /// The samples, in the order of `tree`'s leaves.
+    samples: Vec<Sample>,
+    tree: ConeTree,
+    /// Per face and per edge: whether some sample's reach meets it.
+    face_graded: Vec<bool>,
+    edge_graded: Vec<bool>,
+    /// Per face and per edge: whether queries on it take the requested
+    /// spacing.
+    face_released: Vec<bool>,
+    edge_released: Vec<bool>,
+    vertex_released: Vec<bool>,
+    report: CirclePointsReport,
+}
+
+impl<'a> CirclePoints<'a> {
+    /// The spacing `inner` of `model` capped to `n` nodes per turn; `None`
+    /// when no edge needs it (or `n` is 0), so that the caller keeps
+    /// `inner` as it is.
+    pub fn new(model: &Model, inner: &'a dyn Spacing, n: u32) -> Option<Self> {
+        if n == 0 {
+            return None;
+        }
+        let mut samples = Vec::new();
+        let mut report = CirclePointsReport {
+            n,
+            ..Default::default()
+        };
+        for (ei, e) in model.edges.iter().enumerate() {
+            let entity = EntityRef::new(1, ei as u32);
+            let at = |t: f64| -> (P3, f64, f64) {
+                let p = e.curve.point(t);
+                let d = inner.spacing(&SpacingQuery {
+                    point: p,
+                    entity,
+                    params: [t, 0.0],
+                });
+                let k = curve_curvature(e.curve.as_ref(), t);
+                let cap = if k > 0.0 && k.is_finite() {
+                    std::f64::consts::TAU / (n as f64 * k)
+                } else {
+                    f64::INFINITY
+                };
+                (p, d, cap)
+            };
+            // a first look: does the cap bind anywhere, and how finely must
+            // the edge be sampled there?
+            let probe = 64;
+            let mut least = f64::INFINITY;
+            let mut binds = false;
+            for k in 0..=probe {
+                let t = e.t0 + (e.t1 - e.t0) * k as f64 / probe as f64;
+                let (_, d, cap) = at(t);
+                if cap < d && d.is_finite() && d > 0.0 {
+                    binds = true;
+                    least = least.min(cap);
+                }
+            }
+            if !binds || !(least > 0.0) {
+                continue;
+            }
+            // the edge's total turning ∫κ ds (trapezoid rule on the probe)
+            let turning: f64 = (0..probe)
+                .map(|k| {
+                    let ta = e.t0 + (e.t1 - e.t0) * k as f64 / probe as f64;
+                    let tb = e.t0 + (e.t1 - e.t0) * (k + 1) as f64 / probe as f64;
+                    let ka = curve_curvature(e.curve.as_ref(), ta);
+                    let kb = curve_curvature(e.curve.as_ref(), tb);
+                    let ds = (e.curve.point(tb) - e.curve.point(ta)).norm();
+                    let k = 0.5 * (ka + kb);
+                    if k.is_finite() {
+                        k * ds
+                    } else {
+                        0.0
+                    }
+                })
+                .sum();
+            if turning < MIN_TURNING {
+                continue;
+            }
+            let length = crate::geom::length_between(e.curve.as_ref(), e.t0, e.t1);
+            let m = ((SAMPLES_PER_CAP * length / least).ceil() as usize)
+                .clamp(probe, MAX_SAMPLES_PER_EDGE);
+            let mut worst: Option<CappedEdge> = None;
+            for k in 0..=m {
+                let t = e.t0 + (e.t1 - e.t0) * k as f64 / m as f64;
+                let (p, d, cap) = at(t);
+                if !(cap < d && d.is_finite()) {
+                    continue;
+                }
+                samples.push(Sample {
+                    p,
+                    c: cap,
+                    reach: 1.5 * (d - cap) / GRADE,
+                });
+                if worst.as_ref().is_none_or(|w| cap < w.d) {
+                    worst = Some(CappedEdge {
+                        edge: ei as u32,
+                        name: e.name.clone(),
+                        radius: cap * n as f64 / std::f64::consts::TAU,
+                        d: cap,
+                        requested: d,
+                    });
+                }
+            }
+            report.edges.extend(worst);
+        }
+        if samples.is_empty() {
+            return None;
+        }
+        let tree = ConeTree::new(&mut samples);
+        let mut cp = CirclePoints {
+            inner,
+            tree,
+            samples,
+            face_graded: Vec::new(),
+            edge_graded: Vec::new(),
+            face_released: vec![false; model.faces.len()],
+            edge_released: vec![false; model.edges.len()],
+            vertex_released: vec![false; model.vertices.len()],
+            report,
+        };
+        cp.edge_graded = model
+            .edges
+            .iter()
+            .map(|e| {
+                let pts: Vec<P3> = (0..=16)
+                    .map(|k| e.curve.point(e.t0 + (e.t1 - e.t0) * k as f64 / 16.0))
+                    .collect();
+                cp.reaches_box(&pts)
+            })
+            .collect();
+        cp.face_graded = model
+            .faces
+            .iter()
+            .map(|f| {
+                let pts: Vec<P3> = f
+                    .loops
+                    .iter()
+                    .flat_map(|l| l.edges.iter().map(|u| u.edge))
+                    .chain(f.embedded_edges.iter().copied())
+                    .flat_map(|ei| {
+                        let e = &model.edges[ei as usize];
+                        (0..=16).map(move |k| e.curve.point(e.t0 + (e.t1 - e.t0) * k as f64 / 16.0))
+                    })
+                    .collect();
+                // a face without edges (a whole sphere) is not graded
+                !pts.is_empty() && cp.reaches_box(&pts)
+            })
+            .collect();
+        cp.report.faces = (0..model.faces.len() as u32)
+            .filter(|&f| cp.face_graded[f as usize])
+            .collect();
+        Some(cp)
+    }
+
+    /// What the cap changed.
+    pub fn report(&self) -> &CirclePointsReport {
+        &self.report
+    }
+
+    /// Lets face `face` of `model` and its edges take the requested spacing
+    /// after it failed with `reason`; false when the cap does not grade it
+    /// or it was released already.
+    pub fn release(&mut self, model: &Model, face: u32, reason: &str) -> bool {
+        let f = face as usize;
+        if !self.face_graded.get(f).copied().unwrap_or(false) || self.face_released[f] {
+            return false;
+        }
+        self.face_released[f] = true;
+        let mf = &model.faces[f];
+        for e in mf
+            .loops
+            .iter()
+            .flat_map(|l| l.edges.iter().map(|u| u.edge))
+            .chain(mf.embedded_edges.iter().copied())
+        {
+            if let Some(r) = self.edge_released.get_mut(e as usize) {
+                *r = true;
+            }
+            let me = &model.edges[e as usize];
+            for v in [me.start, me.end] {
+                if let Some(r) = self.vertex_released.get_mut(v as usize) {
+                    *r = true;
+                }
+            }
+        }
+        self.report.released.push(ReleasedFace {
+            face,
+            reason: reason.to_string(),
+        });
+        true
+    }
+
+    /// Whether face `face` was released.
+    pub fn is_released(&self, face: u32) -> bool {
+        self.face_released
+            .get(face as usize)
+            .copied()
+            .unwrap_or(false)
+    }
+
+    /// Whether the cap applies to a query on `e`.
+    fn applies(&self, e: EntityRef) -> bool {
+        match e.dim {
+            0 | 1 => true,
+            2 => !self
+                .face_released
+                .get(e.id as usize)
+                .copied()
+                .unwrap_or(false),
+            _ => false,
+        }
+    }
+
+    /// min(`bound`, min_k c_k + GRADE·|p − p_k|): the graded cap at `p`
+    /// where it is below `bound` (the requested spacing there).
+    fn cap_below(&self, p: &P3, bound: f64) -> f64 {
+        self.tree.least_cone(&self.samples, p, bound)
+    }
+
+    /// Whether a sample's reach meets the bounding box of `pts` grown by a
+    /// tenth of its diagonal (a curved face bulges past its edges).
+    fn reaches_box(&self, pts: &[P3]) -> bool {
+        let Some(first) = pts.first() else {
+            return false;
+        };
+        let (mut lo, mut hi) = (*first, *first);
+        for p in pts {
+            for i in 0..3 {
+                lo[i] = lo[i].min(p[i]);
+                hi[i] = hi[i].max(p[i]);
+            }
+        }
+        let grow = 0.1 * (hi - lo).norm();
+        self.samples.iter().any(|s| {
+            let mut dist2 = 0.0;
+            for i in 0..3 {
+                let below = (lo[i] - grow) - s.p[i];
+                let above = s.p[i] - (hi[i] + grow);
+                let g = below.max(above).max(0.0);
+                dist2 += g * g;
+            }
+            dist2 <= s.reach * s.reach
+        })
+    }
+}
+
+/// A bounding-volume tree over the samples for the query
+/// min_k (c_k + GRADE·|x − p_k|) below a bound.
+///
+/// Written here because the nearest-neighbour crates answer the nearest
+/// point, not the least of cones with different apex heights c_k. A node
+/// is skipped when its least c plus GRADE times the distance from x to its
+/// box is not below the best value so far; starting from the requested
+/// spacing, points out of every sample's reach visit only the root.
+struct ConeTree {
+    nodes: Vec<ConeNode>,
+}
+
+/// A node: its box, the least cap below it, and either two children or a
+/// range of samples.
+struct ConeNode {
+    lo: P3,
+    hi: P3,
+    least_c: f64,
+    /// Leaf: samples[first..first + count]; inner: children at `first` and
+    /// `first + 1` in `nodes`, `count` = 0.
+    first: u32,
+    count: u32,
+}
+
+/// Samples per leaf.
+const LEAF: usize = 8;
+
+impl ConeTree {
+    /// Builds the tree, reordering `samples` so that each leaf's are
+    /// contiguous (median split on the box's longest axis).
+    fn new(samples: &mut [Sample]) -> Self {
+        let mut tree = ConeTree { nodes: Vec::new() };
+        tree.nodes.push(ConeNode::over(samples, 0));
+        let mut stack = vec![(0usize, 0usize, samples.len())];
+        while let Some((node, start, end)) = stack.pop() {
+            if end - start <= LEAF {
+                continue;
+            }
+            let n = &tree.nodes[node];
+            let ext = n.hi - n.lo;
+            let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+                0
+            } else if ext[1] >= ext[2] {
+                1
+            } else {
+                2
+            };
+            let mid = (start + end) / 2;
+            samples[start..end]
+                .select_nth_unstable_by(mid - start, |a, b| a.p[axis].total_cmp(&b.p[axis]));
+            let left = tree.nodes.len();
+            tree.nodes.push(ConeNode::over(&samples[start..mid], start));
+            tree.nodes.push(ConeNode::over(&samples[mid..end], mid));
+            tree.nodes[node].first = left as u32;
+            tree.nodes[node].count = 0;
+            stack.push((left, start, mid));
+            stack.push((left + 1, mid, end));
+        }
+        tree
+    }
+
+    fn least_cone(&self, samples: &[Sample], p: &P3, bound: f64) -> f64 {
+        // a spacing that is not a positive number is the caller's to report
+        if !(bound > 0.0) {
+            return bound;
+        }
+        let mut best = bound;
+        let mut stack = vec![0u32];
+        while let Some(i) = stack.pop() {
+            let n = &self.nodes[i as usize];
+            if n.least_c + GRADE * n.distance(p) >= best {
+                continue;
+            }
+            if n.count > 0 {
+                let (a, b) = (n.first as usize, (n.first + n.count) as usize);
+                for s in &samples[a..b] {
+                    best = best.min(s.c + GRADE * (p - s.p).norm());
+                }
+            } else {
+                // the nearer child last, so that it is visited first and
+                // tightens `best` before the farther one is tested
+                let (a, b) = (n.first, n.first + 1);
+                let da =
+                    self.nodes[a as usize].least_c + GRADE * self.nodes[a as usize].distance(p);
+                let db =
+                    self.nodes[b as usize].least_c + GRADE * self.nodes[b as usize].distance(p);
+                if da < db {
+                    stack.push(b);
+                    stack.push(a);
+                } else {
+                    stack.push(a);
+                    stack.push(b);
+                }
+            }
+        }
+        best
+    }
+}
+
+impl ConeNode {
+    fn over(samples: &[Sample], first: usize) -> Self {
+        let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        let mut least_c = f64::INFINITY;
+        for s in samples {
+            for i in 0..3 {
+                lo[i] = lo[i].min(s.p[i]);
+                hi[i] = hi[i].max(s.p[i]);
+            }
+            least_c = least_c.min(s.c);
+        }
+        ConeNode {
+            lo,
+            hi,
+            least_c,
+            first: first as u32,
+            count: samples.len() as u32,
+        }
+    }
+
+    /// Distance from `p` to the box (0 inside).
+    fn distance(&self, p: &P3) -> f64 {
+        let mut d2 = 0.0;
+        for i in 0..3 {
+            let g = (self.lo[i] - p[i]).max(p[i] - self.hi[i]).max(0.0);
+            d2 += g * g;
+        }
+        d2.sqrt()
+    }
+}
+
+impl Spacing for CirclePoints<'_> {
+    fn spacing(&self, q: &SpacingQuery) -> f64 {
+        let d = self.inner.spacing(q);
+        if !self.applies(q.entity) {
+            return d;
+        }
+        self.cap_below(&q.point, d)
+    }
+    fn spacing_batch(&self, qs: &[SpacingQuery], out: &mut [f64]) {
+        self.inner.spacing_batch(qs, out);
+        for (q, o) in qs.iter().zip(out.iter_mut()) {
+            if self.applies(q.entity) {
+                *o = self.cap_below(&q.point, *o);
+            }
+        }
+    }
+    fn constant(&self) -> Option<f64> {
+        None
+    }
+    fn constant_on(&self, e: EntityRef) -> Option<f64> {
+        // a released entity takes the requested spacing as it is
+        if e.dim < 3 && !self.applies(e) {
+            return self.inner.constant_on(e);
+        }
+        let graded = match e.dim {
+            1 => self.edge_graded.get(e.id as usize).copied().unwrap_or(true),
+            2 => self.face_graded.get(e.id as usize).copied().unwrap_or(true),
+            3 => false,
+            _ => true,
+        };
+        if graded {
+            None
+        } else {
+            self.inner.constant_on(e)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Curve, V3};
+    use crate::model::{Edge, Vertex};
+    use crate::spacing::Constant;
+    use std::sync::Arc;
+
+    /// A circle of radius `r` in the xy plane, t in [0, 2π).
+    #[derive(Debug)]
+    struct Circle(f64);
+
+    impl Curve for Circle {
+        fn interval(&self) -> (f64, f64) {
+            (0.0, std::f64::consts::TAU)
+        }
+        fn point(&self, t: f64) -> P3 {
+            P3::new(self.0 * t.cos(), self.0 * t.sin(), 0.0)
+        }
+        fn d1(&self, t: f64) -> V3 {
+            V3::new(-self.0 * t.sin(), self.0 * t.cos(), 0.0)
+        }
+        fn d2(&self, t: f64) -> V3 {
+            V3::new(-self.0 * t.cos(), -self.0 * t.sin(), 0.0)
+        }
+    }
+
+    fn circle_model(r: f64) -> Model {
+        let mut m = Model::default();
+        m.vertices.push(Vertex {
+            point: P3::new(r, 0.0, 0.0),
+            name: None,
+        });
+        m.edges.push(Edge {
+            curve: Arc::new(Circle(r)),
+            t0: 0.0,
+            t1: std::f64::consts::TAU,
+            start: 0,
+            end: 0,
+            name: None,
+        });
+        m
+    }
+
+    fn at(p: P3, dim: u8) -> SpacingQuery {
+        SpacingQuery {
+            point: p,
+            entity: EntityRef::new(dim, 0),
+            params: [0.0, 0.0],
+        }
+    }
+
+    /// A circle of radius 5 at d = 12 takes 2π·5/7 on the edge, grows at
+    /// GRADE away from it, and is the requested d far away and in volumes.
+    #[test]
+    fn a_small_circle_takes_seven_nodes_and_grades_away() {
+        let m = circle_model(5.0);
+        let d = Constant(12.0);
+        let cp = CirclePoints::new(&m, &d, 7).expect("the cap binds");
+        let cap = std::f64::consts::TAU * 5.0 / 7.0;
+        let on = cp.spacing(&at(P3::new(0.0, 5.0, 0.0), 1));
+        assert!(on <= cap * 1.11 && on >= cap, "{on} on the edge, cap {cap}");
+        let off = cp.spacing(&at(P3::new(0.0, 5.0, 5.0), 2));
+        assert!(
+            (off - (cap + GRADE * 5.0)).abs() < 0.05 * cap,
+            "{off} at 5 from it"
+        );
+        assert_eq!(cp.spacing(&at(P3::new(0.0, 5.0, 100.0), 2)), 12.0);
+        assert_eq!(cp.spacing(&at(P3::new(0.0, 5.0, 0.0), 3)), 12.0);
+        assert_eq!(cp.report().edges.len(), 1);
+        assert!((cp.report().edges[0].radius - 5.0).abs() < 1e-9);
+        assert_eq!(cp.constant_on(EntityRef::new(3, 0)), Some(12.0));
+        assert_eq!(cp.constant_on(EntityRef::new(1, 0)), None);
+    }
+
+    /// The tree's pruned query is the brute-force minimum over the samples
+    /// (samples on a helix with caps that vary, points near and far).
+    #[test]
+    fn the_cone_tree_finds_the_least_cone() {
+        let mut samples: Vec<Sample> = (0..500)
+            .map(|k| {
+                let t = k as f64 * 0.05;
+                Sample {
+                    p: P3::new(t.cos(), t.sin(), 0.1 * t),
+                    c: 0.05 + 0.04 * (3.0 * t).sin().abs(),
+                    reach: 1.0,
+                }
+            })
+            .collect();
+        let tree = ConeTree::new(&mut samples);
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..2000 {
+            let p = P3::new(4.0 * next() - 2.0, 4.0 * next() - 2.0, 3.0 * next() - 0.5);
+            let bound = 0.3 + next();
+            let brute = samples
+                .iter()
+                .map(|s| s.c + GRADE * (p - s.p).norm())
+                .fold(bound, f64::min);
+            let fast = tree.least_cone(&samples, &p, bound);
+            assert_eq!(fast, brute, "at {p:?}");
+        }
+    }
+
+    /// A circle already finer than 2πr/n, a straight model, or n = 0 leave
+    /// the spacing as it was.
+    #[test]
+    fn no_cap_where_the_spacing_is_fine_enough() {
+        let m = circle_model(5.0);
+        assert!(CirclePoints::new(&m, &Constant(4.0), 7).is_none());
+        assert!(CirclePoints::new(&m, &Constant(12.0), 0).is_none());
+    }
+}
