@@ -147,13 +147,16 @@ pub fn mesh_model(
                 // a released face that fails again (as_tie_rod.step's narrow
                 // fillets fold with their capped neighbours around them):
                 // the cap is dropped for the whole model, which is then
-                // meshed as without it
+                // meshed as without it, from its first round
                 if let Some(c) = capped.as_ref() {
                     if failed.spots.is_empty() && failed.faces.iter().any(|&f| c.is_released(f)) {
                         let mut r = c.report().clone();
                         r.dropped = Some(reason.clone());
                         dropped = Some(r);
                         capped = None;
+                        // and the refinement made with it: from here on the
+                        // run is the one without the cap
+                        refinement = refine::Refinement::new(model);
                         continue;
                     }
                 }
