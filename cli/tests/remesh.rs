@@ -242,6 +242,68 @@ fn a_face_region_remeshes_only_that_face() {
     );
 }
 
+/// A face region refined threefold (0.1 to 0.03) on either face of
+/// examples/two_faces.toml: the quadtree's fill used to put seeds among the
+/// kept bubbles of the other face, one on a kept boundary segment, which
+/// the final check refused ("a segment of edge 0 lies in no triangle").
+/// Each run succeeds, and the other face's old nodes are all there.
+#[test]
+fn a_face_region_refined_threefold_keeps_the_other_face() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = example("two_faces.toml");
+    let input = input.to_str().unwrap();
+    let state = dir.path().join("s.state");
+    let old = dir.path().join("old.msh");
+    let o = run(&[
+        "mesh",
+        input,
+        "-o",
+        old.to_str().unwrap(),
+        "--size",
+        "0.1",
+        "-q",
+        "--save-state",
+        state.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = bubblemesh_io::read(&old).unwrap();
+    for (face, other_side) in [("faces:1", -1.0), ("faces:0", 1.0)] {
+        let new = dir.path().join(format!("new_{}.msh", &face[6..]));
+        let o = run(&[
+            "remesh",
+            state.to_str().unwrap(),
+            input,
+            "-o",
+            new.to_str().unwrap(),
+            "--size",
+            "0.03",
+            "--region",
+            face,
+            "-q",
+        ]);
+        assert!(o.status.success(), "{face}: {}", stderr(&o));
+        let b = bubblemesh_io::read(&new).unwrap();
+        let now: std::collections::HashSet<_> = b
+            .nodes
+            .iter()
+            .map(|n| (n.pos.x.to_bits(), n.pos.y.to_bits()))
+            .collect();
+        // the other face's nodes farther than two old spacings from x = 1
+        let far = a
+            .nodes
+            .iter()
+            .filter(|n| other_side * (n.pos.x - 1.0) > 0.2 + 1e-9);
+        for n in far {
+            assert!(
+                now.contains(&(n.pos.x.to_bits(), n.pos.y.to_bits())),
+                "{face}: node at ({}, {}) moved",
+                n.pos.x,
+                n.pos.y
+            );
+        }
+    }
+}
+
 /// The unit cube made `x1` long in x, as a TOML solid.
 fn cube(dir: &Path, name: &str, x1: f64) -> String {
     let p = dir.join(name);

@@ -50,11 +50,10 @@ pub(crate) struct FaceParams {
     /// mean radius ratio +0.005 to +0.012 on most parts, whose faces are a
     /// few spacings across, so the boundary layer is much of the mesh; on
     /// the graded cases B and C it cost 0.005 of the mean and 0.06 of the
-    /// minimum, so not where the spacing varies. Off: a local re-meshing
-    /// (`--region`) of a face packed with the layer lost a boundary segment
-    /// (examples/two_faces.toml, faces:1 at 0.1 then 0.06) and a warm
-    /// start fell 0.05 below the minimum radius ratio from scratch
-    /// (core/tests/remesh.rs); on again once the warm path keeps the layer.
+    /// minimum, so not where the spacing varies. A warm start seeds the
+    /// layer too where the face changed (`warm::stage1`): without it the
+    /// warm minimum radius ratio fell 0.05 below from-scratch's
+    /// (core/tests/remesh.rs).
     pub apex_layer_uniform: bool,
     /// Bubbles closer than this many spacings to a singular point of the
     /// parametrization are connected in their tangent plane (a cap), not in
@@ -75,7 +74,7 @@ pub(crate) struct FaceParams {
 impl FaceParams {
     /// The values in use.
     pub const DEFAULT: FaceParams = FaceParams {
-        apex_layer_uniform: false,
+        apex_layer_uniform: true,
         cap_radius: 5.0,
         improve_rounds: 6,
         lattice_mean_q: 0.999,
@@ -231,7 +230,23 @@ pub(crate) fn mesh_face(
                 uv: boundary.uv.clone(),
                 ids: boundary.ids.clone(),
             };
-            let (sys, c, far) = warm::stage1(carrier, inputs.spacing, fixed, st)?;
+            // the boundary layer of a uniform spacing, as from scratch
+            // (`FaceJob::stage1`); the warm start keeps it where the face
+            // changed
+            let apex = if PRM.apex_layer_uniform && inputs.spacing.constant_on(job.fe).is_some() {
+                let mut d_at = placement::spacing_on(inputs.spacing, job.fe);
+                placement::apex_seeds(
+                    &carrier,
+                    &boundary.directed,
+                    &fixed.pos,
+                    &boundary.uv,
+                    &fixed.d,
+                    &mut d_at,
+                )?
+            } else {
+                Vec::new()
+            };
+            let (sys, c, far) = warm::stage1(carrier, inputs.spacing, fixed, apex, st)?;
             (sys, Some(c), Some(far))
         }
         None => (job.stage1(carrier, &boundary, mesh)?, None, None),

@@ -49,11 +49,14 @@ pub(crate) struct Fixed {
 }
 
 /// Stage 1 from the old bubbles `start` on the face `carrier` holds
-/// bubbles on, after the boundary's `fixed` bubbles (see the module docs).
+/// bubbles on, after the boundary's `fixed` bubbles (see the module docs),
+/// with the boundary layer's seeds `apex` (empty where the spacing varies)
+/// first where the face changed.
 pub(super) fn stage1<'a>(
     carrier: OnFace<'a>,
     spacing: &'a dyn Spacing,
     fixed: Fixed,
+    apex: Vec<placement::Seed>,
     start: &EntityStart,
 ) -> Result<(System<'a, OnFace<'a>>, WarmCounts, Far), MeshError> {
     let fe = carrier.entity();
@@ -88,7 +91,16 @@ pub(super) fn stage1<'a>(
             });
         }
     }
-    let carried = uncrowded(carried, &fixed_pos, &fixed_d, true);
+    // the boundary layer's seeds (a uniform spacing) come first where the
+    // face changed: where the old bubbles are kept, so is their layer
+    let old_free: Vec<P3> = start.free.iter().map(|b| b.pos).collect();
+    let apex = among_free(apex, &fixed_pos[n_boundary..], &old_free);
+    let carried = uncrowded(
+        apex.into_iter().chain(carried).collect(),
+        &fixed_pos,
+        &fixed_d,
+        true,
+    );
     // the quadtree's seeds survive only where no bubble is near
     let (lo, hi) = carrier.region.bbox();
     let d_outside = fixed_d
@@ -107,6 +119,8 @@ pub(super) fn stage1<'a>(
     near_pos.extend(carried.iter().map(|s| s.pos));
     near_d.extend(carried.iter().map(|s| s.d));
     let filled = uncrowded(quad, &near_pos, &near_d, true);
+    let carried_pos: Vec<P3> = carried.iter().map(|s| s.pos).collect();
+    let filled = among_free(filled, &fixed_pos[n_boundary..], &carried_pos);
     counts.carried = carried.len();
     counts.filled = filled.len();
     let seeds: Vec<placement::Seed> = carried.into_iter().chain(filled).collect();
@@ -118,6 +132,44 @@ pub(super) fn stage1<'a>(
     };
     let (sys, far) = assemble(carrier, spacing, 2, fixed, n_boundary, seeds);
     Ok((sys, counts, far))
+}
+
+/// The seeds whose nearest old bubble is a free one, or that have none
+/// within 2⁹ of their spacings: in a local re-meshing the quadtree fills
+/// only the free part of the face. Among the kept bubbles, a finer
+/// spacing leaves room that `uncrowded` does not refuse, and a seed there
+/// sat between two boundary nodes that stay, on their segment
+/// (examples/two_faces.toml, `--region faces:1` from 0.1 to 0.06, with the
+/// boundary's apex layer). Without kept bubbles every seed stays.
+fn among_free(seeds: Vec<placement::Seed>, kept: &[P3], free: &[P3]) -> Vec<placement::Seed> {
+    if kept.is_empty() || seeds.is_empty() {
+        return seeds;
+    }
+    let all: Vec<P3> = kept.iter().chain(free.iter()).copied().collect();
+    let reach = 2.0 * seeds.iter().map(|s| s.d).fold(0.0f64, f64::max);
+    let g = grid::Grid::new(&all, reach.max(f64::MIN_POSITIVE));
+    seeds
+        .into_iter()
+        .filter(|s| {
+            // the nearest old bubble, looked for in balls growing from two
+            // spacings (the old packing may be much coarser than s.d)
+            let mut radius = 2.0 * s.d;
+            for _ in 0..8 {
+                let mut best = (radius, None);
+                g.query(&s.pos, radius, |j| {
+                    let r = (all[j as usize] - s.pos).norm();
+                    if r < best.0 {
+                        best = (r, Some(j as usize));
+                    }
+                });
+                if let Some(j) = best.1 {
+                    return j >= kept.len();
+                }
+                radius *= 2.0;
+            }
+            true
+        })
+        .collect()
 }
 
 /// The stage-2 system of a warm start: the fixed bubbles (the boundary's,
