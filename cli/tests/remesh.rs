@@ -5,7 +5,7 @@
 
 mod support;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use support::*;
 
@@ -187,18 +187,15 @@ fn bad_states_are_refused_and_nothing_is_written() {
     );
 }
 
-/// `faces:` re-meshes the listed faces of examples/two_faces.toml with a
-/// finer spacing; the other face and the edge they share keep their nodes.
-#[test]
-fn a_face_region_remeshes_only_that_face() {
-    let dir = tempfile::tempdir().unwrap();
-    let input = example("two_faces.toml");
-    let input = input.to_str().unwrap();
-    let state = dir.path().join("s.state");
-    let old = dir.path().join("old.msh");
+/// examples/two_faces.toml meshed at 0.1 into `dir` with its state:
+/// (input path, state path, mesh path).
+fn two_faces_at_0_1(dir: &Path) -> (String, PathBuf, PathBuf) {
+    let input = example("two_faces.toml").display().to_string();
+    let state = dir.join("s.state");
+    let old = dir.join("old.msh");
     let o = run(&[
         "mesh",
-        input,
+        &input,
         "-o",
         old.to_str().unwrap(),
         "--size",
@@ -208,6 +205,16 @@ fn a_face_region_remeshes_only_that_face() {
         state.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
+    (input, state, old)
+}
+
+/// `faces:` re-meshes the listed faces of examples/two_faces.toml with a
+/// finer spacing; the other face and the edge they share keep their nodes.
+#[test]
+fn a_face_region_remeshes_only_that_face() {
+    let dir = tempfile::tempdir().unwrap();
+    let (input, state, old) = two_faces_at_0_1(dir.path());
+    let (input, state) = (input.as_str(), state.as_path());
     let new = dir.path().join("new.msh");
     let o = run(&[
         "remesh",
@@ -250,22 +257,8 @@ fn a_face_region_remeshes_only_that_face() {
 #[test]
 fn a_face_region_refined_threefold_keeps_the_other_face() {
     let dir = tempfile::tempdir().unwrap();
-    let input = example("two_faces.toml");
-    let input = input.to_str().unwrap();
-    let state = dir.path().join("s.state");
-    let old = dir.path().join("old.msh");
-    let o = run(&[
-        "mesh",
-        input,
-        "-o",
-        old.to_str().unwrap(),
-        "--size",
-        "0.1",
-        "-q",
-        "--save-state",
-        state.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (input, state, old) = two_faces_at_0_1(dir.path());
+    let (input, state) = (input.as_str(), state.as_path());
     let a = bubblemesh_io::read(&old).unwrap();
     for (face, other_side) in [("faces:1", -1.0), ("faces:0", 1.0)] {
         let new = dir.path().join(format!("new_{}.msh", &face[6..]));
