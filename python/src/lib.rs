@@ -211,7 +211,7 @@ impl Progress {
 #[pyo3(signature = (
     path, size=None, size_fn=None, dim=None, curvature=None, view=None, plugins=Vec::new(),
     fast=false, threads=None, progress=None, show_progress=true, unit=None, d_min=None,
-    d_max=None, combine="min", name=None
+    d_max=None, combine="min", circle_points=bubblemesh_core::DEFAULT_CIRCLE_POINTS, name=None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn mesh(
@@ -231,6 +231,7 @@ fn mesh(
     d_min: Option<f64>,
     d_max: Option<f64>,
     combine: &str,
+    circle_points: u32,
     name: Option<String>,
 ) -> PyResult<Mesh> {
     let t0 = Instant::now();
@@ -287,6 +288,7 @@ fn mesh(
         dim,
         fast,
         threads,
+        circle_points,
         ..Default::default()
     };
     let mut opts = settings.options(&path, &model);

@@ -247,3 +247,23 @@ def test_gil_is_released_while_meshing():
         t.join()
     # the other thread ran throughout the meshing
     assert elapsed < 0.05 or len(ticks) > elapsed / 0.005 * 0.3, (len(ticks), elapsed)
+
+
+def test_circle_points_keeps_small_holes_round(tmp_path):
+    # a hole of radius 0.05 at size 0.2: its circle gets at least 7 nodes by
+    # default (the faces around it grade back), one or two segments with 0
+    domain = tmp_path / "hole.toml"
+    domain.write_text(
+        'format = "bubblemesh-domain 1"\n\n[[face]]\nname = "plate"\n'
+        "outer = { polygon = [[0, 0], [1, 0], [1, 1], [0, 1]] }\n"
+        "holes = [ { circle = { center = [0.5, 0.5], radius = 0.05 } } ]\n"
+    )
+
+    def on_hole(m):
+        r = np.linalg.norm(m.points[:, :2] - 0.5, axis=1)
+        return int((np.abs(r - 0.05) < 1e-9).sum())
+
+    capped = bubblemesh.mesh(str(domain), size=0.2, progress=False)
+    plain = bubblemesh.mesh(str(domain), size=0.2, progress=False, circle_points=0)
+    assert on_hole(capped) >= 7, on_hole(capped)
+    assert on_hole(plain) < 7, on_hole(plain)

@@ -194,6 +194,7 @@ def mesh(
     d_min=None,
     d_max=None,
     combine="min",
+    circle_points=7,
 ) -> Mesh:
     """Meshes ``source`` by bubble packing, as ``bubblemesh mesh`` does.
 
@@ -237,6 +238,11 @@ def mesh(
         or raising cancels the run (:class:`Cancelled`, or the exception).
     unit, d_min, d_max, combine
         As ``--unit``, ``--d-min``, ``--d-max`` and ``--combine``.
+    circle_points
+        At least this many nodes per full turn of a curved edge (a hole's
+        circle): where the size is coarser, the edge is meshed finer and
+        the faces around it grade back (``--circle-points``; 0: the size
+        as given).
 
     Raises
     ------
@@ -285,6 +291,7 @@ def mesh(
                 d_min=d_min,
                 d_max=d_max,
                 combine=combine,
+                circle_points=int(circle_points),
                 name=name,
             )
     finally:

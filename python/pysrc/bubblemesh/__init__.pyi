@@ -99,6 +99,7 @@ def mesh(
     d_min: Optional[float] = None,
     d_max: Optional[float] = None,
     combine: Literal["min", "product"] = "min",
+    circle_points: int = 7,
 ) -> Mesh:
     """Meshes a STEP/TOML file or a CadQuery/build123d object by bubble
     packing, as `bubblemesh mesh` does."""
