@@ -148,7 +148,8 @@ impl<'a> CirclePoints<'a> {
         };
         for (ei, e) in model.edges.iter().enumerate() {
             let entity = EntityRef::new(1, ei as u32);
-            let at = |t: f64| -> (P3, f64, f64) {
+            // (point, requested d, cap, curvature) at parameter t
+            let at = |t: f64| -> (P3, f64, f64, f64) {
                 let p = e.curve.point(t);
                 let d = inner.spacing(&SpacingQuery {
                     point: p,
@@ -161,35 +162,29 @@ impl<'a> CirclePoints<'a> {
                 } else {
                     f64::INFINITY
                 };
-                (p, d, cap)
+                (p, d, cap, k)
             };
-            // a first look: does the cap bind anywhere, and how finely must
-            // the edge be sampled there?
+            // a first look: does the cap bind anywhere, how finely must the
+            // edge be sampled there, and how far does it turn (∫κ ds by the
+            // trapezoid rule)?
             let probe = 64;
-            let mut least = f64::INFINITY;
-            let mut binds = false;
-            for k in 0..=probe {
-                let t = e.t0 + (e.t1 - e.t0) * k as f64 / probe as f64;
-                let (_, d, cap) = at(t);
-                if cap < d && d.is_finite() && d > 0.0 {
-                    binds = true;
-                    least = least.min(cap);
-                }
-            }
-            if !binds || !(least > 0.0) {
+            let looks: Vec<_> = (0..=probe)
+                .map(|k| at(e.t0 + (e.t1 - e.t0) * k as f64 / probe as f64))
+                .collect();
+            let least = looks
+                .iter()
+                .filter(|&&(_, d, cap, _)| cap < d && d.is_finite() && d > 0.0)
+                .map(|l| l.2)
+                .fold(f64::INFINITY, f64::min);
+            if !(least > 0.0 && least.is_finite()) {
                 continue;
             }
-            // the edge's total turning ∫κ ds (trapezoid rule on the probe)
-            let turning: f64 = (0..probe)
-                .map(|k| {
-                    let ta = e.t0 + (e.t1 - e.t0) * k as f64 / probe as f64;
-                    let tb = e.t0 + (e.t1 - e.t0) * (k + 1) as f64 / probe as f64;
-                    let ka = curve_curvature(e.curve.as_ref(), ta);
-                    let kb = curve_curvature(e.curve.as_ref(), tb);
-                    let ds = (e.curve.point(tb) - e.curve.point(ta)).norm();
-                    let k = 0.5 * (ka + kb);
+            let turning: f64 = looks
+                .windows(2)
+                .map(|w| {
+                    let k = 0.5 * (w[0].3 + w[1].3);
                     if k.is_finite() {
-                        k * ds
+                        k * (w[1].0 - w[0].0).norm()
                     } else {
                         0.0
                     }
@@ -204,7 +199,7 @@ impl<'a> CirclePoints<'a> {
             let mut worst: Option<CappedEdge> = None;
             for k in 0..=m {
                 let t = e.t0 + (e.t1 - e.t0) * k as f64 / m as f64;
-                let (p, d, cap) = at(t);
+                let (p, d, cap, _) = at(t);
                 if !(cap < d && d.is_finite()) {
                     continue;
                 }
@@ -342,28 +337,39 @@ impl<'a> CirclePoints<'a> {
     /// Whether a sample's reach meets the bounding box of `pts` grown by a
     /// tenth of its diagonal (a curved face bulges past its edges).
     fn reaches_box(&self, pts: &[P3]) -> bool {
-        let Some(first) = pts.first() else {
+        if pts.is_empty() {
             return false;
-        };
-        let (mut lo, mut hi) = (*first, *first);
-        for p in pts {
-            for i in 0..3 {
-                lo[i] = lo[i].min(p[i]);
-                hi[i] = hi[i].max(p[i]);
-            }
         }
-        let grow = 0.1 * (hi - lo).norm();
-        self.samples.iter().any(|s| {
-            let mut dist2 = 0.0;
-            for i in 0..3 {
-                let below = (lo[i] - grow) - s.p[i];
-                let above = s.p[i] - (hi[i] + grow);
-                let g = below.max(above).max(0.0);
-                dist2 += g * g;
-            }
-            dist2 <= s.reach * s.reach
-        })
+        let (lo, hi) = bounds(pts.iter());
+        let grow = crate::geom::V3::repeat(0.1 * (hi - lo).norm());
+        let (lo, hi) = (lo - grow, hi + grow);
+        self.samples
+            .iter()
+            .any(|s| box_distance(&lo, &hi, &s.p) <= s.reach)
     }
+}
+
+/// The bounding box of `pts` (inverted, +∞ to −∞, when there are none).
+fn bounds<'p>(pts: impl Iterator<Item = &'p P3>) -> (P3, P3) {
+    let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for p in pts {
+        for i in 0..3 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Distance from `p` to the box [lo, hi] (0 inside).
+fn box_distance(lo: &P3, hi: &P3, p: &P3) -> f64 {
+    let mut d2 = 0.0;
+    for i in 0..3 {
+        let g = (lo[i] - p[i]).max(p[i] - hi[i]).max(0.0);
+        d2 += g * g;
+    }
+    d2.sqrt()
 }
 
 /// A bounding-volume tree over the samples for the query
@@ -467,20 +473,11 @@ impl ConeTree {
 
 impl ConeNode {
     fn over(samples: &[Sample], first: usize) -> Self {
-        let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-        let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-        let mut least_c = f64::INFINITY;
-        for s in samples {
-            for i in 0..3 {
-                lo[i] = lo[i].min(s.p[i]);
-                hi[i] = hi[i].max(s.p[i]);
-            }
-            least_c = least_c.min(s.c);
-        }
+        let (lo, hi) = bounds(samples.iter().map(|s| &s.p));
         ConeNode {
             lo,
             hi,
-            least_c,
+            least_c: samples.iter().map(|s| s.c).fold(f64::INFINITY, f64::min),
             first: first as u32,
             count: samples.len() as u32,
         }
@@ -488,12 +485,7 @@ impl ConeNode {
 
     /// Distance from `p` to the box (0 inside).
     fn distance(&self, p: &P3) -> f64 {
-        let mut d2 = 0.0;
-        for i in 0..3 {
-            let g = (self.lo[i] - p[i]).max(p[i] - self.hi[i]).max(0.0);
-            d2 += g * g;
-        }
-        d2.sqrt()
+        box_distance(&self.lo, &self.hi, p)
     }
 }
 

@@ -36,6 +36,9 @@ pub struct System<'a, C: Carrier> {
     /// Factor on the stable distance in the force: the packing is held
     /// slightly compressed ([`PRESSURE`]).
     pub pressure: f64,
+    /// `Some(d)` when the spacing is d everywhere on the carrier's entity,
+    /// asked once ([`Spacing::constant_on`] may walk the model).
+    pub uniform: Option<f64>,
 }
 
 /// Result of the stage-2 relaxation.
@@ -131,11 +134,8 @@ impl<'a, C: Carrier> System<'a, C> {
         fixed_ids: Vec<u32>,
     ) -> Self {
         let n_fixed = fixed_ids.len();
-        let pressure = if spacing.constant_on(carrier.entity()).is_some() {
-            1.0
-        } else {
-            PRESSURE
-        };
+        let uniform = spacing.constant_on(carrier.entity());
+        let pressure = if uniform.is_some() { 1.0 } else { PRESSURE };
         System {
             carrier,
             spacing,
@@ -147,6 +147,7 @@ impl<'a, C: Carrier> System<'a, C> {
             d,
             fixed_ids,
             pressure,
+            uniform,
         }
     }
 
@@ -163,7 +164,7 @@ impl<'a, C: Carrier> System<'a, C> {
     /// `Some(d)` when the spacing is d everywhere on this entity (then a
     /// moved bubble keeps its diameter).
     pub fn uniform(&self) -> Option<f64> {
-        self.spacing.constant_on(self.carrier.entity())
+        self.uniform
     }
 
     /// d at a point of this entity, checked finite and > 0.

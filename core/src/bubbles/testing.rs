@@ -87,6 +87,7 @@ pub(crate) fn system<'a, C: Carrier>(
         d: vec![spacing.0; nf],
         fixed_ids: (0..nf as u32).collect(),
         pressure: 1.0,
+        uniform: Some(spacing.0),
     }
 }
 
