@@ -193,8 +193,13 @@ struct MeshArgs {
     /// At least N nodes per full turn of a curved edge: where the size is
     /// larger than 2πρ/N (ρ the edge's radius of curvature) the edge takes
     /// 2πρ/N and the faces around it grade back to the size (Gmsh's
-    /// Mesh.MinimumCirclePoints). 0 keeps the size as given.
-    #[arg(long, value_name = "N", default_value_t = bubblemesh_core::DEFAULT_CIRCLE_POINTS)]
+    /// Mesh.MinimumCirclePoints). 0 keeps the size as given; at most 1000.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = bubblemesh_core::DEFAULT_CIRCLE_POINTS,
+        value_parser = clap::value_parser!(u32).range(0..=bubblemesh_core::MAX_CIRCLE_POINTS as i64)
+    )]
     circle_points: u32,
     /// Threads for stage 2's force and move computation (the result does
     /// not depend on it). Default: every core; 1 runs single-threaded; at

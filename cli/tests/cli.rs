@@ -265,24 +265,36 @@ fn bad_input_gives_a_clear_error_and_no_output() {
     }
 }
 
-/// `--threads 0` is a usage error naming the option (clap's exit status
-/// 2), not a silent single thread.
+/// `--threads 0`, and `--circle-points` negative or above 1000 (a cap
+/// finer than any spacing meant, minutes of work), are usage errors naming
+/// the option (clap's exit status 2), not a silent single thread or a run.
 #[test]
-fn zero_threads_is_refused() {
+fn zero_threads_and_bad_circle_points_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.msh");
     let sq = example("square.toml");
-    let o = run(&[
-        "mesh",
-        sq.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--threads",
-        "0",
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
-    assert!(!out.exists());
+    for (option, value) in [
+        ("--threads", "0"),
+        ("--circle-points", "1001"),
+        ("--circle-points", "-3"),
+    ] {
+        let o = run(&[
+            "mesh",
+            sq.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            option,
+            value,
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{option} {value}: {}", stderr(&o));
+        // clap names the option, or the stray value it did not take
+        assert!(
+            stderr(&o).contains(option) || stderr(&o).contains(value),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!out.exists());
+    }
 }
 
 /// Curvature- and view-based spacing from the command line, combined with

@@ -50,7 +50,7 @@ pub(crate) mod volume;
 // The API other crates use: meshing, its options, observer and report.
 pub use engine::{
     mesh_model, EnergySample, Event, Integrator, ObserverFn, Options, RelaxSettings, RelaxStats,
-    Report, Timings, VolumeLattice, DEFAULT_CIRCLE_POINTS,
+    Report, Timings, VolumeLattice, DEFAULT_CIRCLE_POINTS, MAX_CIRCLE_POINTS,
 };
 pub use error::MeshError;
 pub use geom::{Curve, Plane, Surface, SurfaceDerivs, P3, V3};

@@ -162,6 +162,11 @@ pub struct Options {
 /// `Mesh.MinimumCirclePoints` default).
 pub const DEFAULT_CIRCLE_POINTS: u32 = 7;
 
+/// The most nodes per turn one may ask for (`--circle-points`): beyond,
+/// the cap is finer than any spacing a user means and only multiplies
+/// the bubbles.
+pub const MAX_CIRCLE_POINTS: u32 = 1000;
+
 impl Default for Options {
     fn default() -> Self {
         Options {

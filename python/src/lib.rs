@@ -284,6 +284,12 @@ fn mesh(
         bubblemesh_run::size_text(size.as_deref(), request.others_given(), &model, &path)
             .map_err(to_py)?;
     let built = bubblemesh_run::build_spacing(request, &size_text, &model).map_err(to_py)?;
+    if circle_points > bubblemesh_core::MAX_CIRCLE_POINTS {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "circle_points must be 0 to {}, not {circle_points}",
+            bubblemesh_core::MAX_CIRCLE_POINTS
+        )));
+    }
     let settings = EngineSettings {
         dim,
         fast,

@@ -267,3 +267,6 @@ def test_circle_points_keeps_small_holes_round(tmp_path):
     plain = bubblemesh.mesh(str(domain), size=0.2, progress=False, circle_points=0)
     assert on_hole(capped) >= 7, on_hole(capped)
     assert on_hole(plain) < 7, on_hole(plain)
+    for bad in (-1, 1001):
+        with pytest.raises((ValueError, OverflowError)):
+            bubblemesh.mesh(str(domain), size=0.2, progress=False, circle_points=bad)

@@ -44,7 +44,7 @@ pub use crate::bubbles::dynamics::Integrator;
 pub use crate::bubbles::system::{EnergySample, RelaxSettings, RelaxStats};
 pub use crate::error::MeshError;
 pub use crate::options::{
-    Event, ObserverFn, Options, Timings, VolumeLattice, DEFAULT_CIRCLE_POINTS,
+    Event, ObserverFn, Options, Timings, VolumeLattice, DEFAULT_CIRCLE_POINTS, MAX_CIRCLE_POINTS,
 };
 
 /// What the run did.
