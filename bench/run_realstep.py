@@ -133,9 +133,14 @@ def meshcheck(path, mode, timeout):
                    comps=v.get("boundary_components"))
     else:
         t = rep.get("triangles", {})
+        # Euler characteristic V - E + F of the triangulated surface (meshcheck
+        # gives the counts, not the sum).
+        euler = None
+        if None not in (rep.get("n_nodes"), v.get("n_edges"), t.get("count")):
+            euler = rep["n_nodes"] - rep.get("unreferenced_nodes", 0) - v["n_edges"] + t["count"]
         out.update(n=t.get("count"), q_mean=t.get("q_mean"), q_min=t.get("q_min"),
                    worst=t.get("min_angle_min"), comps=v.get("boundary_components"),
-                   closed=v.get("closed_surface"))
+                   closed=v.get("closed_surface"), euler=euler)
     bad = {k: v[k] for k in ("edges_shared_by_gt2", "n_inconsistent_orientation_edges", "n_zero_area",
                              "n_inverted", "unreferenced_nodes", "duplicate_node_pairs",
                              "boundary_vertices_not_deg2") if v.get(k)}
@@ -184,6 +189,8 @@ def main():
             b_out = os.path.join(OUT, f"{stem}.{mode}.bm.msh")
             if a.skip_gmsh and key in old:
                 g, gc = old[key]["gmsh"], old[key]["gmsh_check"]
+                if gc and os.path.exists(g_out):
+                    gc = meshcheck(g_out, mode, a.timeout)
             else:
                 g = run_gmsh(step, g_out, mode, a.timeout, a.mem_mb)
                 gc = meshcheck(g_out, mode, a.timeout) if not g.get("error") else None
@@ -208,8 +215,9 @@ def main():
 
 
 def write_table(results):
-    lines = ["| mode | file | d | Gmsh | Gmsh s | Gmsh q mean / min | bm | bm s | bm q mean / min | worst angle (bm / Gmsh) | bm message |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| mode | file | d | Gmsh | Gmsh s | Gmsh q mean / min | bm | bm s | bm q mean / min | worst angle (bm / Gmsh) "
+             "| topology χ, boundary loops (bm / Gmsh) | bm message |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     summary = {}
     for key in sorted(results):
         mode, f = key.split(":", 1)
@@ -219,25 +227,37 @@ def write_table(results):
             continue
         go, bo = outcome(g, gc), outcome(b, bc)
         s = summary.setdefault(mode, {"n": 0, "gmsh_valid": 0, "bm_valid": 0, "bm_wrong": 0,
-                                      "bm_valid_where_gmsh_valid": 0, "bm_only": 0})
+                                      "bm_valid_where_gmsh_valid": 0, "bm_only": 0,
+                                      "same_topology": 0, "other_topology": []})
         s["n"] += 1
         s["gmsh_valid"] += go == "valid"
         s["bm_valid"] += bo == "valid"
         s["bm_wrong"] += bo == "WRONG"
         s["bm_valid_where_gmsh_valid"] += go == "valid" and bo == "valid"
         s["bm_only"] += go != "valid" and bo == "valid"
+        topo = lambda c: None if not c or c.get("euler") is None else (c["euler"], c.get("comps"))
+        bt, gt = topo(bc), topo(gc)
+        if go == "valid" and bo == "valid" and bt is not None and gt is not None:
+            if bt == gt:
+                s["same_topology"] += 1
+            else:
+                s["other_topology"].append(f)
+        tp = f"{'–' if bt is None else '%d, %d' % bt} / {'–' if gt is None else '%d, %d' % gt}"
         g_t = sum(g.get(k, 0) for k in ("import_s", "mesh_s", "write_s"))
         gq = f"{fmt((gc or {}).get('q_mean'))} / {fmt((gc or {}).get('q_min'))}"
         bq = f"{fmt((bc or {}).get('q_mean'))} / {fmt((bc or {}).get('q_min'))}"
         wa = f"{fmt((bc or {}).get('worst'), '{:.1f}')} / {fmt((gc or {}).get('worst'), '{:.1f}')}"
         msg = (b.get("error") or "").replace("|", "/")[:140]
-        lines.append(f"| {mode} | {f} | {g['d']:.4g} | {go} | {g_t:.2f} | {gq} | {bo} | {b['time_s']:.2f} | {bq} | {wa} | {msg} |")
+        lines.append(f"| {mode} | {f} | {g['d']:.4g} | {go} | {g_t:.2f} | {gq} | {bo} | {b['time_s']:.2f} | {bq} | {wa} | {tp} | {msg} |")
     head = ["# bubblemesh and Gmsh on ../shared/realstep", "",
             "Made by `python3 bench/run_realstep.py`; see its docstring for sizes and settings.", ""]
     for mode, s in summary.items():
         head.append(f"- **{mode}**: {s['n']} files; Gmsh valid {s['gmsh_valid']}, bubblemesh valid {s['bm_valid']} "
                     f"(of Gmsh's valid ones: {s['bm_valid_where_gmsh_valid']}; where Gmsh is not: {s['bm_only']}); "
-                    f"bubblemesh WRONG (exit 0, invalid mesh): {s['bm_wrong']}")
+                    f"bubblemesh WRONG (exit 0, invalid mesh): {s['bm_wrong']}; same topology as Gmsh "
+                    f"(Euler characteristic, boundary loops) on {s['same_topology']} of "
+                    f"{s['same_topology'] + len(s['other_topology'])} both valid"
+                    + (f" (other: {', '.join(s['other_topology'])})" if s["other_topology"] else ""))
     text = "\n".join(head + [""] + lines) + "\n"
     open(os.path.join(OUT, "RESULTS.md"), "w").write(text)
     print("\n".join(head[4:]))
