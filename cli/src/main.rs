@@ -193,7 +193,9 @@ struct MeshArgs {
     /// At least N nodes per full turn of a curved edge: where the size is
     /// larger than 2πρ/N (ρ the edge's radius of curvature) the edge takes
     /// 2πρ/N and the faces around it grade back to the size (Gmsh's
-    /// Mesh.MinimumCirclePoints). 0 keeps the size as given; at most 1000.
+    /// Mesh.MinimumCirclePoints); the spacing also grades from edges
+    /// shorter than 0.6 times the size. 0 keeps the size as given; at most
+    /// 1000.
     #[arg(
         long,
         value_name = "N",

@@ -23,6 +23,13 @@
 //! capped edges and the faces they grade are in the report
 //! ([`CirclePoints::report`]).
 //!
+//! Short edges grade the same way: an edge shorter than [`SHORT_EDGE`]·d
+//! is one segment whose ends are nodes, and the spacing around it grows
+//! from c = max(its length, [`SHORT_EDGE_FLOOR`]·d) at [`GRADE`] (a small
+//! square hole, a narrow step: without it the triangles joining such a
+//! segment to neighbours at d were needles — as_40mm_capot.stp mean radius
+//! ratio 0.747, Gmsh 0.798; graded 0.85). `n` = 0 turns both off.
+//!
 //! A face the graded spacing cannot mesh is released
 //! ([`CirclePoints::release`]): on it, its edges and their vertices the
 //! requested spacing applies again (the engine does this before refining
@@ -58,6 +65,50 @@ const SAMPLES_PER_CAP: f64 = 2.0;
 /// samples).
 const MAX_SAMPLES_PER_EDGE: usize = 4096;
 
+/// An edge shorter than this fraction of the requested spacing grades the
+/// spacing around it from its length (floored at [`SHORT_EDGE_FLOOR`]·d):
+/// its ends are nodes a segment apart however coarse d is, and triangles
+/// that join a segment of 0.3·d to neighbours at d are needles (a small
+/// square hole in a plate, as_40mm_capot.stp). Gmsh's frontal insertion
+/// grades there by construction.
+pub const SHORT_EDGE: f64 = 0.6;
+
+/// The least spacing a short edge grades from, as a fraction of the
+/// requested one: an edge of CAD dust (a sliver's end, 10⁻³·d) makes poor
+/// triangles whatever the spacing around it, so it is not worth refining a
+/// region for.
+pub const SHORT_EDGE_FLOOR: f64 = 0.25;
+
+/// Samples (every c/2) of an edge from `t0` to `t1` shorter than
+/// [`SHORT_EDGE`] times the least requested spacing d `looks` saw on it,
+/// with the cap c = max(length, [`SHORT_EDGE_FLOOR`]·d); and its length, c
+/// and d. `None` for any other edge.
+fn short_edge(
+    curve: &dyn crate::geom::Curve,
+    t0: f64,
+    t1: f64,
+    looks: &[(P3, f64, f64, f64)],
+) -> Option<(Vec<Sample>, f64, f64, f64)> {
+    let d = looks.iter().map(|l| l.1).fold(f64::INFINITY, f64::min);
+    if !(d > 0.0 && d.is_finite()) {
+        return None;
+    }
+    let length = crate::geom::length_between(curve, t0, t1);
+    if !(length < SHORT_EDGE * d) {
+        return None;
+    }
+    let c = length.max(SHORT_EDGE_FLOOR * d);
+    let m = (SAMPLES_PER_CAP * length / c).ceil().max(1.0) as usize;
+    let samples = (0..=m)
+        .map(|k| Sample {
+            p: curve.point(t0 + (t1 - t0) * k as f64 / m as f64),
+            c,
+            reach: 1.5 * (d - c) / GRADE,
+        })
+        .collect();
+    Some((samples, length, c, d))
+}
+
 /// A point of a capped edge and the spacing there.
 #[derive(Clone, Copy, Debug)]
 struct Sample {
@@ -85,15 +136,38 @@ pub struct CappedEdge {
     pub requested: f64,
 }
 
-/// What the minimum of nodes per turn changed (the run's report).
+/// An edge shorter than [`SHORT_EDGE`] times the spacing, from which the
+/// spacing grades, for the report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ShortEdge {
+    /// The edge id.
+    pub edge: u32,
+    /// Its name in the input, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Its length, in model units.
+    pub length: f64,
+    /// The spacing the region around it grades from (its length, at
+    /// least [`SHORT_EDGE_FLOOR`] times the requested spacing).
+    pub d: f64,
+    /// The requested spacing there.
+    pub requested: f64,
+}
+
+/// What the minimum of nodes per turn and the grading from short edges
+/// changed (the run's report).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct CirclePointsReport {
     /// Nodes per full turn asked for.
     pub n: u32,
-    /// Edges meshed finer than the requested spacing.
+    /// Curved edges meshed finer than the requested spacing.
     pub edges: Vec<CappedEdge>,
-    /// Faces whose spacing grows from a capped edge somewhere (finer than
-    /// requested near it).
+    /// Edges shorter than [`SHORT_EDGE`] times the spacing, from which the
+    /// spacing around grades.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub short_edges: Vec<ShortEdge>,
+    /// Faces whose spacing grows from a capped or short edge somewhere
+    /// (finer than requested near it).
     pub faces: Vec<u32>,
     /// Faces that failed with the graded spacing and were meshed with the
     /// requested one inside (their capped edges kept), with the error.
@@ -134,9 +208,9 @@ pub struct CirclePoints<'a> {
 }
 
 impl<'a> CirclePoints<'a> {
-    /// The spacing `inner` of `model` capped to `n` nodes per turn; `None`
-    /// when no edge needs it (or `n` is 0), so that the caller keeps
-    /// `inner` as it is.
+    /// The spacing `inner` of `model` capped to `n` nodes per turn and
+    /// graded from short edges; `None` when no edge needs it (or `n` is 0),
+    /// so that the caller keeps `inner` as it is.
     pub fn new(model: &Model, inner: &'a dyn Spacing, n: u32) -> Option<Self> {
         if n == 0 {
             return None;
@@ -171,6 +245,20 @@ impl<'a> CirclePoints<'a> {
             let looks: Vec<_> = (0..=probe)
                 .map(|k| at(e.t0 + (e.t1 - e.t0) * k as f64 / probe as f64))
                 .collect();
+            // an edge much shorter than the spacing is one segment whose
+            // ends are nodes: the spacing grows from its length around it
+            // (see SHORT_EDGE)
+            if let Some((short, length, c, d)) = short_edge(e.curve.as_ref(), e.t0, e.t1, &looks) {
+                samples.extend(short);
+                report.short_edges.push(ShortEdge {
+                    edge: ei as u32,
+                    name: e.name.clone(),
+                    length,
+                    d: c,
+                    requested: d,
+                });
+                continue;
+            }
             let least = looks
                 .iter()
                 .filter(|&&(_, d, cap, _)| cap < d && d.is_finite() && d > 0.0)

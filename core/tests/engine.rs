@@ -326,3 +326,51 @@ fn a_small_hole_gets_seven_nodes_per_turn_at_a_coarse_size() {
     );
     assert!(report0.circle_points.is_none());
 }
+
+/// A square hole of side 0.3·d in a plate: its four edges are one segment
+/// each, and the spacing grades from their length around them
+/// (`circle_points::SHORT_EDGE`), so the triangles that join the hole to
+/// the plate are not needles. Without it (`circle_points` = 0) they are.
+#[test]
+fn a_small_square_hole_grades_the_spacing_around_it() {
+    let mut m = bubblemesh_core::Model::default();
+    let outer = common::polygon_loop(&mut m, &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let (a, b) = (0.47, 0.53);
+    let hole = common::polygon_loop(&mut m, &[[a, a], [a, b], [b, b], [b, a]]);
+    common::face(&mut m, vec![outer, hole]);
+    let d = 0.2;
+    let worst_near_hole = |mesh: &Mesh| {
+        let q = common::radius_ratios(mesh);
+        mesh.triangles
+            .iter()
+            .zip(q)
+            .filter(|(t, _)| {
+                t.nodes.iter().any(|&n| {
+                    let p = mesh.nodes[n as usize].pos;
+                    (p.x - 0.5).abs() < 0.04 && (p.y - 0.5).abs() < 0.04
+                })
+            })
+            .map(|(_, q)| q)
+            .fold(1.0, f64::min)
+    };
+    let (mesh, report) = mesh_model(&m, &Constant(d), &Options::default()).unwrap();
+    let cp = report
+        .circle_points
+        .as_ref()
+        .expect("the short edges grade");
+    assert_eq!(cp.short_edges.len(), 4, "{:?}", cp.short_edges);
+    assert!(cp
+        .short_edges
+        .iter()
+        .all(|s| (s.length - 0.06).abs() < 1e-9 && (s.d - 0.06).abs() < 1e-9));
+    let graded = worst_near_hole(&mesh);
+    assert!(graded > 0.6, "worst radius ratio at the hole {graded}");
+
+    let off = Options {
+        circle_points: 0,
+        ..Default::default()
+    };
+    let (mesh0, _) = mesh_model(&m, &Constant(d), &off).unwrap();
+    let plain = worst_near_hole(&mesh0);
+    assert!(plain < graded, "without grading {plain}, graded {graded}");
+}

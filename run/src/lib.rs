@@ -608,17 +608,39 @@ pub fn circle_points_note(model: &Model, report: &Report) -> Option<String> {
     let finest = c
         .edges
         .iter()
-        .min_by(|a, b| (a.d / a.requested).total_cmp(&(b.d / b.requested)))?;
-    let edge = model.describe(bubblemesh_core::EntityRef::new(1, finest.edge));
+        .min_by(|a, b| (a.d / a.requested).total_cmp(&(b.d / b.requested)));
+    let mut parts = Vec::new();
+    if let Some(finest) = finest {
+        let edge = model.describe(bubblemesh_core::EntityRef::new(1, finest.edge));
+        parts.push(format!(
+            "{} curved edge(s) meshed finer than the size to keep {} nodes per turn, the finest \
+             {edge} (radius {}) at {} instead of {}",
+            c.edges.len(),
+            c.n,
+            significant(finest.radius, 3),
+            significant(finest.d, 3),
+            significant(finest.requested, 3),
+        ));
+    }
+    if let Some(shortest) = c
+        .short_edges
+        .iter()
+        .min_by(|a, b| a.length.total_cmp(&b.length))
+    {
+        let edge = model.describe(bubblemesh_core::EntityRef::new(1, shortest.edge));
+        parts.push(format!(
+            "{} edge(s) shorter than {} times the size, the shortest {edge} ({} long)",
+            c.short_edges.len(),
+            bubblemesh_core::circle_points::SHORT_EDGE,
+            significant(shortest.length, 3),
+        ));
+    }
+    if parts.is_empty() {
+        return None;
+    }
     let mut line = format!(
-        "note: {} curved edge(s) meshed finer than the size to keep {} nodes per turn, the finest \
-         {edge} (radius {}) at {} instead of {}; the faces around them grade back to the size \
-         (--circle-points 0 keeps the size)",
-        c.edges.len(),
-        c.n,
-        significant(finest.radius, 3),
-        significant(finest.d, 3),
-        significant(finest.requested, 3),
+        "note: {}; the faces around them grade back to the size (--circle-points 0 keeps the size)",
+        parts.join("; ")
     );
     if !c.released.is_empty() {
         line.push_str(&format!(

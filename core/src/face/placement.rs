@@ -249,6 +249,121 @@ pub fn apex_seeds<C: Carrier>(
     Ok(out)
 }
 
+/// Seeds along the middle of strips between two stretches of boundary
+/// [`STRIP_ROW`] to [`STRIP_WIDEST`] stable distances apart (a fillet, a
+/// narrow band of a face), where neither [`apex_seeds`] nor the quadtree
+/// can place a bubble: one at the apex crowds the other side's boundary
+/// bubbles. Without them such a strip is connected by one row of
+/// triangles as tall as the strip is wide (radius ratio ≈ 0.75 at a width
+/// of 1.6·d); a middle row halves their height.
+///
+/// For each boundary segment a→b whose apex (as in [`apex_seeds`]) lies
+/// within r0 of a boundary bubble j across the strip (within 45° of the
+/// segment's inward normal), the seed lies on that normal (to first order
+/// in (u,v)) halfway to j's distance along it, kept when it lies
+/// in the face and no boundary bubble is closer to it than
+/// [`STRIP_CLEARANCE`]·r0. The caller drops seeds that crowd others
+/// ([`uncrowded`]).
+pub fn strip_seeds<C: Carrier>(
+    carrier: &C,
+    boundary: &[[usize; 2]],
+    pos: &[P3],
+    uv: &[[f64; 2]],
+    d: &[f64],
+    d_at: &mut FaceSpacing<'_>,
+) -> Result<Vec<Seed>, MeshError> {
+    let mut out = Vec::new();
+    if pos.is_empty() {
+        return Ok(out);
+    }
+    let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
+    let dmax = d.iter().cloned().fold(0.0f64, f64::max);
+    let grid = crate::bubbles::grid::Grid::new(pos, 1.5 * dmin);
+    for &[a, b] in boundary {
+        let l = (pos[b] - pos[a]).norm();
+        if l <= 0.0 {
+            continue;
+        }
+        let mid_uv = [0.5 * (uv[a][0] + uv[b][0]), 0.5 * (uv[a][1] + uv[b][1])];
+        let du = [uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]];
+        let nuv = [-du[1], du[0]];
+        let mid = carrier.point(mid_uv);
+        let probe = carrier.point([mid_uv[0] + 1e-6 * nuv[0], mid_uv[1] + 1e-6 * nuv[1]]);
+        let scale = (probe - mid).norm() / 1e-6;
+        if !(scale > 0.0) {
+            continue;
+        }
+        let r0 = 0.5 * (0.5 * (d[a] + d[b]) + d_at(&mid, mid_uv)?);
+        let height = (r0 * r0 - 0.25 * l * l).max(l * l / 12.0).sqrt();
+        let t = height / scale;
+        let apex_uv = [mid_uv[0] + t * nuv[0], mid_uv[1] + t * nuv[1]];
+        if !carrier.contains(apex_uv) {
+            continue;
+        }
+        let apex = carrier.point(apex_uv);
+        // the boundary bubble across the strip nearest to the apex: within
+        // one stable distance of it, and seen from the segment's midpoint
+        // within 45° of the inward normal (not a neighbour along the
+        // boundary)
+        let inward = (probe - mid) / (probe - mid).norm();
+        let mut across: Option<(usize, f64)> = None;
+        grid.query(&apex, 0.5 * (r0 + dmax), |j| {
+            let j = j as usize;
+            let dist = (pos[j] - apex).norm();
+            let to_j = pos[j] - mid;
+            if j != a
+                && j != b
+                && dist < 0.5 * (r0 + d[j])
+                && to_j.dot(&inward) >= std::f64::consts::FRAC_1_SQRT_2 * to_j.norm()
+                && across.is_none_or(|(_, best)| dist < best)
+            {
+                across = Some((j, dist));
+            }
+        });
+        let Some((j, _)) = across else { continue };
+        // the strip's width there, across (along the inward normal); the
+        // seed goes halfway across, over the segment's midpoint
+        let width = (pos[j] - mid).dot(&inward);
+        if !(STRIP_ROW * r0..=STRIP_WIDEST * r0).contains(&width) {
+            continue;
+        }
+        let t = 0.5 * width / scale;
+        let m_uv = [mid_uv[0] + t * nuv[0], mid_uv[1] + t * nuv[1]];
+        if !carrier.contains(m_uv) {
+            continue;
+        }
+        let p = carrier.point(m_uv);
+        let dd = d_at(&p, m_uv)?;
+        let mut clear = true;
+        grid.query(&p, STRIP_CLEARANCE * 0.5 * (dd + dmax), |k| {
+            let k = k as usize;
+            if (pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (dd + d[k]) {
+                clear = false;
+            }
+        });
+        if clear {
+            out.push(Seed {
+                pos: p,
+                params: m_uv,
+                d: dd,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The narrowest strip, in stable distances r0, that gets a middle row of
+/// bubbles ([`strip_seeds`]): below it one row of triangles of height w is
+/// better than two of height w/2 (w = √2·0.87·r0 is where they are equal).
+pub const STRIP_ROW: f64 = 1.3;
+
+/// The widest strip [`strip_seeds`] considers; wider ones get apex seeds.
+pub const STRIP_WIDEST: f64 = 2.5;
+
+/// How close, in stable distances, a strip seed may be to a boundary
+/// bubble (half a strip of [`STRIP_ROW`] is 0.65).
+pub const STRIP_CLEARANCE: f64 = 0.6;
+
 /// The seeds, in order, that do not crowd a fixed bubble or (with
 /// `check_seeds`) an earlier kept seed: closer than 0.75·r0.
 pub(crate) fn uncrowded(
@@ -335,6 +450,52 @@ mod tests {
 
     fn graded(x: f64) -> f64 {
         0.05 + 0.1 * x
+    }
+
+    /// A strip of the unit square 1.5 stable distances wide (d = 0.1,
+    /// between y = 0 and 0.15): every boundary segment's apex crowds the
+    /// other side, and the seeds go down the middle, one over each segment.
+    /// Three times wider the strip has room for apex seeds and gets none.
+    #[test]
+    fn strip_seeds_run_down_the_middle_of_a_narrow_strip() {
+        let (n, d) = (10, 0.1);
+        for (width, expect) in [(0.15, true), (0.45, false)] {
+            let mut pos = Vec::new();
+            let mut uv = Vec::new();
+            for y in [0.0, width] {
+                for k in 0..=n {
+                    let x = k as f64 / n as f64;
+                    pos.push(P3::new(x, y, 0.0));
+                    uv.push([x, y]);
+                }
+            }
+            // bottom left to right, top right to left: the strip on the left
+            let mut boundary: Vec<[usize; 2]> = (0..n).map(|k| [k, k + 1]).collect();
+            boundary.extend((0..n).map(|k| [n + 2 + k, n + 1 + k]));
+            let ds = vec![d; pos.len()];
+            let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
+            let seeds = strip_seeds(&Square, &boundary, &pos, &uv, &ds, &mut d_at).unwrap();
+            if !expect {
+                assert!(seeds.is_empty(), "{} seeds {width} wide", seeds.len());
+                continue;
+            }
+            assert_eq!(seeds.len(), 2 * n, "one per segment of either side");
+            for s in &seeds {
+                assert!(
+                    (s.pos.y - 0.5 * width).abs() < 1e-6,
+                    "a seed off the middle: {:?}",
+                    s.pos
+                );
+                let k = (s.pos.x * n as f64 - 0.5).round();
+                assert!(
+                    (s.pos.x - (k + 0.5) / n as f64).abs() < 1e-9,
+                    "not over a segment: {:?}",
+                    s.pos
+                );
+            }
+            // the two sides propose the same row: one of each pair is kept
+            assert_eq!(uncrowded(seeds, &[], &[], true).len(), n);
+        }
     }
 
     /// Seeds of the oblique quadtree (§4.1.2) on the unit square, counted
