@@ -120,6 +120,8 @@ pub fn mesh_model(
     let mut capped = crate::circle_points::CirclePoints::new(model, spacing, opts.circle_points);
     // the cap's report once it was dropped (see below)
     let mut dropped: Option<crate::circle_points::CirclePointsReport> = None;
+    // released faces that failed again and were refined once with the cap on
+    let mut retried: std::collections::HashSet<u32> = Default::default();
     loop {
         rounds += 1;
         let boundary_spacing: &dyn Spacing = match &capped {
@@ -144,12 +146,31 @@ pub fn mesh_model(
             }
             Err(failed) => {
                 let reason = failed.error.to_string();
-                // a released face that fails again (as_tie_rod.step's narrow
-                // fillets fold with their capped neighbours around them):
-                // the cap is dropped for the whole model, which is then
-                // meshed as without it, from its first round
+                // a released face that fails again is refined once with the
+                // cap kept (as_0053's six countersink cones fold at the
+                // requested spacing and mesh at half of it; dropping the cap
+                // made the whole part 20 times more tetrahedra than Gmsh's,
+                // with touching faces refined to an eighth); if it fails
+                // again (as_tie_rod.step's narrow fillets fold with their
+                // capped neighbours around them), or the volume stage fails
+                // while faces are released, the cap is dropped for the whole
+                // model, which is then meshed as without it, from its first
+                // round
                 if let Some(c) = capped.as_ref() {
-                    if failed.spots.is_empty() && failed.faces.iter().any(|&f| c.is_released(f)) {
+                    let released_again: Vec<u32> = failed
+                        .faces
+                        .iter()
+                        .copied()
+                        .filter(|&f| c.is_released(f))
+                        .collect();
+                    let again = released_again.iter().any(|f| retried.contains(f));
+                    retried.extend(released_again.iter().copied());
+                    let drop = if failed.spots.is_empty() {
+                        again
+                    } else {
+                        !c.report().released.is_empty()
+                    };
+                    if drop {
                         let mut r = c.report().clone();
                         r.dropped = Some(reason.clone());
                         dropped = Some(r);
