@@ -50,7 +50,9 @@ const FOLD_COS: f64 = -0.94;
 pub struct CheckError {
     /// The entity whose mesh is wrong.
     pub entity: EntityRef,
-    /// Other entities involved (the other faces at an edge, the edge).
+    /// Other entities involved (the other faces at an edge, the edge); for
+    /// a refinable defect of the face checks, also the entities of the
+    /// further refinable defects found in the same pass.
     pub also: Vec<EntityRef>,
     /// Whether a finer spacing on `entity` and `also` may cure the defect
     /// (not for orientation or coinciding model vertices).
@@ -399,9 +401,30 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
         if orientation_pass && !orientation {
             break;
         }
+        // the first defect is the error; the entities of further refinable
+        // ones join its `also`, so that one refinement round takes them
+        // all (as_0053's six countersink cones took twelve rounds, one
+        // face at a time)
+        let mut first: Option<CheckError> = None;
         for (&(p, q), us) in &segs {
             let seg = Segment { p, q, uses: us };
-            check_segment(model, mesh, &uses, &normals, seg, orientation_pass)?;
+            if let Err(e) = check_segment(model, mesh, &uses, &normals, seg, orientation_pass) {
+                match first.as_mut() {
+                    None if !e.refinable => return Err(e),
+                    None => first = Some(e),
+                    Some(f) if e.refinable => {
+                        for x in std::iter::once(e.entity).chain(e.also) {
+                            if x != f.entity && !f.also.contains(&x) {
+                                f.also.push(x);
+                            }
+                        }
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+        if let Some(f) = first {
+            return Err(f);
         }
     }
     Ok(())

@@ -184,3 +184,42 @@ fn a_volume_without_tetrahedra_is_refused() {
     mesh.tetrahedra.clear();
     fails_with(&m, &mesh, 3, "has no tetrahedra");
 }
+
+/// Two faces with a gap each: the error names the first and lists the
+/// second in `also`, so that the engine refines both in one round instead
+/// of one face per round (as_0053_grabcad_part19.stp took twelve rounds).
+#[test]
+fn every_refinable_face_defect_is_named_in_one_error() {
+    const TWO_SQUARES: &str = r#"
+format = "bubblemesh-domain 1"
+[[face]]
+outer = { polygon = [[0, 0], [1, 0], [1, 1], [0, 1]] }
+[[face]]
+outer = { polygon = [[2, 0], [3, 0], [3, 1], [2, 1]] }
+"#;
+    let (m, mut mesh) = meshed(TWO_SQUARES, 0.1, 2);
+    for face in [0, 1] {
+        let t = mesh
+            .triangles
+            .iter()
+            .position(|t| {
+                t.entity.id == face
+                    && t.nodes
+                        .iter()
+                        .all(|&n| mesh.nodes[n as usize].entity.dim == 2)
+            })
+            .expect("an interior triangle");
+        mesh.triangles.remove(t);
+    }
+    let e = verify(&m, &mesh, 2).expect_err("two gaps");
+    assert!(e.to_string().contains("has a gap"), "{e}");
+    assert!(e.refinable);
+    let mut faces: Vec<u32> = std::iter::once(e.entity)
+        .chain(e.also.iter().copied())
+        .filter(|x| x.dim == 2)
+        .map(|x| x.id)
+        .collect();
+    faces.sort_unstable();
+    faces.dedup();
+    assert_eq!(faces, vec![0, 1], "{e:?}");
+}
