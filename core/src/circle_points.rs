@@ -77,7 +77,7 @@ pub const SHORT_EDGE: f64 = 0.6;
 /// requested one: an edge of CAD dust (a sliver's end, 10⁻³·d) makes poor
 /// triangles whatever the spacing around it, so it is not worth refining a
 /// region for.
-pub const SHORT_EDGE_FLOOR: f64 = 0.25;
+pub const SHORT_EDGE_FLOOR: f64 = 1.0 / 6.0;
 
 /// Samples (every c/2) of an edge from `t0` to `t1` shorter than
 /// [`SHORT_EDGE`] times the least requested spacing d `looks` saw on it,
