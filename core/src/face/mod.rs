@@ -583,6 +583,8 @@ impl<'a> FaceJob<'a> {
         let fixed_d: Vec<f64> = boundary.ids.iter().map(|&id| node_d[id as usize]).collect();
         let uniform = spacing.constant_on(fe);
         let with_apex = PRM.apex_layer_uniform && uniform.is_some();
+        // boundary layer: one bubble over each boundary segment, at the apex
+        // of the near-equilateral triangle on it (see `placement::apex_seeds`)
         let apex = if with_apex {
             placement::apex_seeds(
                 &carrier,
@@ -617,46 +619,20 @@ impl<'a> FaceJob<'a> {
         } else {
             Vec::new()
         };
-        // the middle row of strips too narrow for a bubble at the apex
-        // (`placement::strip_seeds`) comes first: the others are kept where
-        // they do not crowd it, as a lattice seed sitting in the strip would
-        // leave it half empty (bubbles there sit in the hollows between the
-        // two sides and do not spread along it)
-        let strip = placement::uncrowded(
-            placement::strip_seeds(
-                &carrier,
-                &boundary.directed,
-                &fixed_pos,
-                &boundary.uv,
-                &fixed_d,
-                &mut d_at,
-            )?,
-            &[],
-            &[],
-            true,
-        );
         let all: Vec<placement::Seed> = apex.into_iter().chain(grown).chain(seeds).collect();
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
-        let check_seeds =
-            uniform.is_none() || with_apex || !surface.is_planar() || !strip.is_empty();
-        let seeds = if strip.is_empty() {
-            placement::uncrowded(all, &fixed_pos, &fixed_d, check_seeds)
-        } else {
-            let taken_pos: Vec<P3> = fixed_pos
-                .iter()
-                .cloned()
-                .chain(strip.iter().map(|s| s.pos))
-                .collect();
-            let taken_d: Vec<f64> = fixed_d
-                .iter()
-                .cloned()
-                .chain(strip.iter().map(|s| s.d))
-                .collect();
-            let mut kept = strip;
-            kept.extend(placement::uncrowded(all, &taken_pos, &taken_d, check_seeds));
-            kept
-        };
+        let check_seeds = uniform.is_none() || with_apex || !surface.is_planar();
+        let seeds = placement::after_strips(
+            &carrier,
+            &boundary.directed,
+            &fixed_pos,
+            &boundary.uv,
+            &fixed_d,
+            &mut d_at,
+            all,
+            check_seeds,
+        )?;
         let mut sys = System::with_fixed(
             carrier,
             spacing,

@@ -249,6 +249,44 @@ pub fn apex_seeds<C: Carrier>(
     Ok(out)
 }
 
+/// Stage 1's seeds `all` (in order of priority) with the middle row of
+/// narrow strips ([`strip_seeds`]) first: the others are kept where they do
+/// not crowd a fixed bubble, a strip seed or (with `check_seeds`) an
+/// earlier kept seed. The strips come first because a lattice seed sitting
+/// in a strip leaves it half empty: bubbles there sit in the hollows
+/// between the two sides and do not spread along it.
+#[allow(clippy::too_many_arguments)]
+pub fn after_strips<C: Carrier>(
+    carrier: &C,
+    boundary: &[[usize; 2]],
+    pos: &[P3],
+    uv: &[[f64; 2]],
+    d: &[f64],
+    d_at: &mut FaceSpacing<'_>,
+    all: Vec<Seed>,
+    check_seeds: bool,
+) -> Result<Vec<Seed>, MeshError> {
+    let strip = uncrowded(
+        strip_seeds(carrier, boundary, pos, uv, d, d_at)?,
+        &[],
+        &[],
+        true,
+    );
+    if strip.is_empty() {
+        return Ok(uncrowded(all, pos, d, check_seeds));
+    }
+    let taken_pos: Vec<P3> = pos
+        .iter()
+        .cloned()
+        .chain(strip.iter().map(|s| s.pos))
+        .collect();
+    let taken_d: Vec<f64> = d.iter().cloned().chain(strip.iter().map(|s| s.d)).collect();
+    let mut kept = strip;
+    // seeds of one lattice cannot crowd each other, strip seeds can
+    kept.extend(uncrowded(all, &taken_pos, &taken_d, true));
+    Ok(kept)
+}
+
 /// Seeds along the middle of strips between two stretches of boundary
 /// [`STRIP_ROW`] to [`STRIP_WIDEST`] stable distances apart (a fillet, a
 /// narrow band of a face), where neither [`apex_seeds`] nor the quadtree
