@@ -28,6 +28,7 @@ pub(crate) mod placement;
 pub(crate) mod region;
 pub(crate) mod warm;
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use crate::bubbles::constraint::{self, Carrier};
@@ -885,6 +886,37 @@ fn isometric(surface: &dyn crate::geom::Surface, lo: [f64; 2], hi: [f64; 2]) -> 
         && dv.su.dot(&dv.sv).abs() < 1e-9
 }
 
+/// Whether `tris` (counter-clockwise in (u,v)) cover a face once: every
+/// directed boundary segment of `boundary` in exactly one triangle, every
+/// other edge in two, once each way. The lattice restart's passes move
+/// bubbles after its connection; on as_40mm_capot a graded face came out
+/// with an edge in four triangles, and the final check then failed the
+/// whole model.
+fn covers_once(tris: &[[usize; 3]], boundary: &[[usize; 2]]) -> bool {
+    let mut uses: HashMap<(usize, usize), i32> = HashMap::with_capacity(3 * tris.len());
+    for t in tris {
+        for k in 0..3 {
+            *uses.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let directed: std::collections::HashSet<(usize, usize)> =
+        boundary.iter().map(|&[a, b]| (a, b)).collect();
+    // a segment run both ways (a slit) is an interior edge here
+    let on_boundary: std::collections::HashSet<(usize, usize)> = directed
+        .iter()
+        .copied()
+        .filter(|&(a, b)| !directed.contains(&(b, a)))
+        .collect();
+    uses.iter().all(|(&(a, b), &n)| {
+        n == 1
+            && if on_boundary.contains(&(a, b)) {
+                !uses.contains_key(&(b, a))
+            } else {
+                uses.get(&(b, a)) == Some(&1)
+            }
+    }) && on_boundary.iter().all(|e| uses.contains_key(e))
+}
+
 /// What a kept conformal restart reports: the cones placed (five-,
 /// seven-valent) and the second stage 2's statistics.
 type Restart = ((usize, usize), system::RelaxStats);
@@ -982,10 +1014,12 @@ fn conformal_restart<C: constraint::Carrier>(
         )?;
         Ok((relax, new_tris))
     })();
-    // kept only if better in mean radius ratio and no worse in spacing
+    // kept only if a manifold cover of the face, better in mean radius
+    // ratio and no worse in spacing
     match attempt {
         Ok((relax, new_tris))
             if !new_tris.is_empty()
+                && covers_once(&new_tris, boundary)
                 && mean_q(sys, &new_tris) > before.0
                 && in_band(sys, &new_tris) >= before.1.min(0.995) =>
         {
@@ -1052,6 +1086,24 @@ fn growth_start<'s>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A square of four boundary nodes and a centre node: four triangles
+    /// cover it once; a duplicated triangle (an edge in four triangles, as
+    /// as_40mm_capot's lattice restart once gave), a missing one or a
+    /// reversed one do not.
+    #[test]
+    fn covers_once_refuses_overlaps_gaps_and_flips() {
+        let boundary = [[0, 1], [1, 2], [2, 3], [3, 0]];
+        let fan = vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        assert!(covers_once(&fan, &boundary));
+        let mut twice = fan.clone();
+        twice.push([1, 2, 4]);
+        assert!(!covers_once(&twice, &boundary));
+        assert!(!covers_once(&fan[..3], &boundary));
+        let mut flipped = fan.clone();
+        flipped[2] = [3, 2, 4];
+        assert!(!covers_once(&flipped, &boundary));
+    }
 
     /// The wall of a hole of radius 0.025 and height 0.001 (face 7 of
     /// `as_0086_ski_part_with_hole.step` in `../shared/realstep`): a band
