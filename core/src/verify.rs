@@ -406,15 +406,20 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
         // all (as_0053's six countersink cones took twelve rounds, one
         // face at a time)
         let mut first: Option<CheckError> = None;
+        // the entities named so far (a broken face repeats them per segment)
+        let mut named: std::collections::HashSet<EntityRef> = Default::default();
         for (&(p, q), us) in &segs {
             let seg = Segment { p, q, uses: us };
             if let Err(e) = check_segment(model, mesh, &uses, &normals, seg, orientation_pass) {
                 match first.as_mut() {
                     None if !e.refinable => return Err(e),
-                    None => first = Some(e),
+                    None => {
+                        named.extend(std::iter::once(e.entity).chain(e.also.iter().copied()));
+                        first = Some(e);
+                    }
                     Some(f) if e.refinable => {
                         for x in std::iter::once(e.entity).chain(e.also) {
-                            if x != f.entity && !f.also.contains(&x) {
+                            if named.insert(x) {
                                 f.also.push(x);
                             }
                         }
