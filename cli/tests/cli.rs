@@ -582,3 +582,50 @@ fn touching_solids_are_reported_not_silently_written() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("touch"), "{}", stderr(&o));
 }
+
+/// A square hole of side 0.3·d in a plate: the run says that short edges
+/// grade the spacing (one note, naming the shortest), the report lists
+/// them under `engine.circle_points.short_edges`, and `--circle-points 0`
+/// turns the grading off (no note, no list).
+#[test]
+fn short_edges_are_reported_and_can_be_turned_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("plate.toml");
+    std::fs::write(
+        &input,
+        "format = \"bubblemesh-domain 1\"\n[[face]]\n\
+         outer = { polygon = [[0, 0], [1, 0], [1, 1], [0, 1]] }\n\
+         holes = [ { polygon = [[0.47, 0.47], [0.47, 0.53], [0.53, 0.53], [0.53, 0.47]] } ]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("plate.msh");
+    let rep = dir.path().join("rep.json");
+    for (cp, graded) in [("7", true), ("0", false)] {
+        let o = run(&[
+            "mesh",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "0.2",
+            "--circle-points",
+            cp,
+            "--report",
+            rep.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let note = stderr(&o).contains("shorter than 0.6 times the size");
+        assert_eq!(note, graded, "--circle-points {cp}: {}", stderr(&o));
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+        let short = r["engine"]["circle_points"]["short_edges"]
+            .as_array()
+            .map_or(0, |a| a.len());
+        assert_eq!(
+            short,
+            if graded { 4 } else { 0 },
+            "{}",
+            r["engine"]["circle_points"]
+        );
+    }
+}
