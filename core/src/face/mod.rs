@@ -236,14 +236,13 @@ pub(crate) fn mesh_face(
             // changed
             let apex = if PRM.apex_layer_uniform && inputs.spacing.constant_on(job.fe).is_some() {
                 let mut d_at = placement::spacing_on(inputs.spacing, job.fe);
-                placement::apex_seeds(
-                    &carrier,
-                    &boundary.directed,
-                    &fixed.pos,
-                    &boundary.uv,
-                    &fixed.d,
-                    &mut d_at,
-                )?
+                let ring = placement::Ring {
+                    directed: &boundary.directed,
+                    pos: &fixed.pos,
+                    uv: &boundary.uv,
+                    d: &fixed.d,
+                };
+                placement::apex_seeds(&carrier, &ring, &mut d_at)?
             } else {
                 Vec::new()
             };
@@ -586,15 +585,14 @@ impl<'a> FaceJob<'a> {
         let with_apex = PRM.apex_layer_uniform && uniform.is_some();
         // boundary layer: one bubble over each boundary segment, at the apex
         // of the near-equilateral triangle on it (see `placement::apex_seeds`)
+        let ring = placement::Ring {
+            directed: &boundary.directed,
+            pos: &fixed_pos,
+            uv: &boundary.uv,
+            d: &fixed_d,
+        };
         let apex = if with_apex {
-            placement::apex_seeds(
-                &carrier,
-                &boundary.directed,
-                &fixed_pos,
-                &boundary.uv,
-                &fixed_d,
-                &mut d_at,
-            )?
+            placement::apex_seeds(&carrier, &ring, &mut d_at)?
         } else {
             Vec::new()
         };
@@ -624,16 +622,7 @@ impl<'a> FaceJob<'a> {
         // seeds of one uniform lattice cannot crowd each other, so that
         // check is only made for a varying spacing
         let check_seeds = uniform.is_none() || with_apex || !surface.is_planar();
-        let seeds = placement::after_strips(
-            &carrier,
-            &boundary.directed,
-            &fixed_pos,
-            &boundary.uv,
-            &fixed_d,
-            &mut d_at,
-            all,
-            check_seeds,
-        )?;
+        let seeds = placement::after_strips(&carrier, &ring, &mut d_at, all, check_seeds)?;
         let mut sys = System::with_fixed(
             carrier,
             spacing,

@@ -5,7 +5,7 @@
 //!
 //! All placement is O(n) in the number of bubbles placed.
 
-use crate::geom::P3;
+use crate::geom::{P3, V3};
 
 use crate::bubbles::constraint::Carrier;
 pub(crate) use crate::bubbles::MAX_BUBBLES_PER_ENTITY;
@@ -209,44 +209,88 @@ pub fn oblique_quadtree<C: Carrier>(
 /// move. Seeds outside the face are dropped.
 pub fn apex_seeds<C: Carrier>(
     carrier: &C,
-    boundary: &[[usize; 2]],
-    pos: &[P3],
-    uv: &[[f64; 2]],
-    d: &[f64],
+    ring: &Ring<'_>,
     d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
-    let mut out = Vec::with_capacity(boundary.len());
-    for &[a, b] in boundary {
-        let l = (pos[b] - pos[a]).norm();
-        if l <= 0.0 {
+    let mut out = Vec::with_capacity(ring.directed.len());
+    for &[a, b] in ring.directed {
+        let Some(ap) = segment_apex(carrier, ring, a, b, d_at)? else {
+            continue;
+        };
+        if !carrier.contains(ap.apex_uv) {
             continue;
         }
-        let mid_uv = [0.5 * (uv[a][0] + uv[b][0]), 0.5 * (uv[a][1] + uv[b][1])];
-        let du = [uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]];
-        // left normal in (u,v), scaled to unit length in model space
-        let nuv = [-du[1], du[0]];
-        let mid = carrier.point(mid_uv);
-        let probe = carrier.point([mid_uv[0] + 1e-6 * nuv[0], mid_uv[1] + 1e-6 * nuv[1]]);
-        let scale = (probe - mid).norm() / 1e-6;
-        if !(scale > 0.0) {
-            continue;
-        }
-        let r0 = 0.5 * (0.5 * (d[a] + d[b]) + d_at(&mid, mid_uv)?);
-        let height = (r0 * r0 - 0.25 * l * l).max(l * l / 12.0).sqrt();
-        let t = height / scale;
-        let apex_uv = [mid_uv[0] + t * nuv[0], mid_uv[1] + t * nuv[1]];
-        if !carrier.contains(apex_uv) {
-            continue;
-        }
-        let p = carrier.point(apex_uv);
-        let dd = d_at(&p, apex_uv)?;
+        let p = carrier.point(ap.apex_uv);
+        let dd = d_at(&p, ap.apex_uv)?;
         out.push(Seed {
             pos: p,
-            params: apex_uv,
+            params: ap.apex_uv,
             d: dd,
         });
     }
     Ok(out)
+}
+
+/// The fixed (boundary) bubbles of a face as stage 1's boundary seeding
+/// reads them: the directed boundary segments (face on their left) as
+/// index pairs into the bubbles' positions, (u,v) and spacings.
+pub struct Ring<'r> {
+    pub directed: &'r [[usize; 2]],
+    pub pos: &'r [P3],
+    pub uv: &'r [[f64; 2]],
+    pub d: &'r [f64],
+}
+
+/// The near-equilateral triangle over a boundary segment a→b
+/// ([`apex_seeds`]): its midpoint, the left normal in (u,v) (`nuv`, of
+/// model length `scale` per unit of parameter), the unit inward normal in
+/// model space, the stable distance r0 and the apex's (u,v), which may lie
+/// outside the face. `None` for a segment of zero length or a degenerate
+/// parameterisation.
+struct SegmentApex {
+    mid: P3,
+    mid_uv: [f64; 2],
+    nuv: [f64; 2],
+    scale: f64,
+    inward: V3,
+    r0: f64,
+    apex_uv: [f64; 2],
+}
+
+fn segment_apex<C: Carrier>(
+    carrier: &C,
+    ring: &Ring<'_>,
+    a: usize,
+    b: usize,
+    d_at: &mut FaceSpacing<'_>,
+) -> Result<Option<SegmentApex>, MeshError> {
+    let (pos, uv, d) = (ring.pos, ring.uv, ring.d);
+    let l = (pos[b] - pos[a]).norm();
+    if l <= 0.0 {
+        return Ok(None);
+    }
+    let mid_uv = [0.5 * (uv[a][0] + uv[b][0]), 0.5 * (uv[a][1] + uv[b][1])];
+    let du = [uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]];
+    // left normal in (u,v), scaled to unit length in model space
+    let nuv = [-du[1], du[0]];
+    let mid = carrier.point(mid_uv);
+    let probe = carrier.point([mid_uv[0] + 1e-6 * nuv[0], mid_uv[1] + 1e-6 * nuv[1]]);
+    let scale = (probe - mid).norm() / 1e-6;
+    if !(scale > 0.0) {
+        return Ok(None);
+    }
+    let r0 = 0.5 * (0.5 * (d[a] + d[b]) + d_at(&mid, mid_uv)?);
+    let height = (r0 * r0 - 0.25 * l * l).max(l * l / 12.0).sqrt();
+    let t = height / scale;
+    Ok(Some(SegmentApex {
+        mid,
+        mid_uv,
+        nuv,
+        scale,
+        inward: (probe - mid) / (probe - mid).norm(),
+        r0,
+        apex_uv: [mid_uv[0] + t * nuv[0], mid_uv[1] + t * nuv[1]],
+    }))
 }
 
 /// Stage 1's seeds `all` (in order of priority) with the middle row of
@@ -255,23 +299,15 @@ pub fn apex_seeds<C: Carrier>(
 /// earlier kept seed. The strips come first because a lattice seed sitting
 /// in a strip leaves it half empty: bubbles there sit in the hollows
 /// between the two sides and do not spread along it.
-#[allow(clippy::too_many_arguments)]
 pub fn after_strips<C: Carrier>(
     carrier: &C,
-    boundary: &[[usize; 2]],
-    pos: &[P3],
-    uv: &[[f64; 2]],
-    d: &[f64],
+    ring: &Ring<'_>,
     d_at: &mut FaceSpacing<'_>,
     all: Vec<Seed>,
     check_seeds: bool,
 ) -> Result<Vec<Seed>, MeshError> {
-    let strip = uncrowded(
-        strip_seeds(carrier, boundary, pos, uv, d, d_at)?,
-        &[],
-        &[],
-        true,
-    );
+    let (pos, d) = (ring.pos, ring.d);
+    let strip = uncrowded(strip_seeds(carrier, ring, d_at)?, &[], &[], true);
     if strip.is_empty() {
         return Ok(uncrowded(all, pos, d, check_seeds));
     }
@@ -304,12 +340,10 @@ pub fn after_strips<C: Carrier>(
 /// ([`uncrowded`]).
 pub fn strip_seeds<C: Carrier>(
     carrier: &C,
-    boundary: &[[usize; 2]],
-    pos: &[P3],
-    uv: &[[f64; 2]],
-    d: &[f64],
+    ring: &Ring<'_>,
     d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
+    let (pos, d) = (ring.pos, ring.d);
     let mut out = Vec::new();
     if pos.is_empty() {
         return Ok(out);
@@ -317,33 +351,27 @@ pub fn strip_seeds<C: Carrier>(
     let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
     let dmax = d.iter().cloned().fold(0.0f64, f64::max);
     let grid = crate::bubbles::grid::Grid::new(pos, 1.5 * dmin);
-    for &[a, b] in boundary {
-        let l = (pos[b] - pos[a]).norm();
-        if l <= 0.0 {
+    for &[a, b] in ring.directed {
+        let Some(ap) = segment_apex(carrier, ring, a, b, d_at)? else {
+            continue;
+        };
+        if !carrier.contains(ap.apex_uv) {
             continue;
         }
-        let mid_uv = [0.5 * (uv[a][0] + uv[b][0]), 0.5 * (uv[a][1] + uv[b][1])];
-        let du = [uv[b][0] - uv[a][0], uv[b][1] - uv[a][1]];
-        let nuv = [-du[1], du[0]];
-        let mid = carrier.point(mid_uv);
-        let probe = carrier.point([mid_uv[0] + 1e-6 * nuv[0], mid_uv[1] + 1e-6 * nuv[1]]);
-        let scale = (probe - mid).norm() / 1e-6;
-        if !(scale > 0.0) {
-            continue;
-        }
-        let r0 = 0.5 * (0.5 * (d[a] + d[b]) + d_at(&mid, mid_uv)?);
-        let height = (r0 * r0 - 0.25 * l * l).max(l * l / 12.0).sqrt();
-        let t = height / scale;
-        let apex_uv = [mid_uv[0] + t * nuv[0], mid_uv[1] + t * nuv[1]];
-        if !carrier.contains(apex_uv) {
-            continue;
-        }
-        let apex = carrier.point(apex_uv);
+        let SegmentApex {
+            mid,
+            mid_uv,
+            nuv,
+            scale,
+            inward,
+            r0,
+            ..
+        } = ap;
+        let apex = carrier.point(ap.apex_uv);
         // the boundary bubble across the strip nearest to the apex: within
         // one stable distance of it, and seen from the segment's midpoint
         // within 45° of the inward normal (not a neighbour along the
         // boundary)
-        let inward = (probe - mid) / (probe - mid).norm();
         let mut across: Option<(usize, f64)> = None;
         grid.query(&apex, 0.5 * (r0 + dmax), |j| {
             let j = j as usize;
@@ -512,7 +540,13 @@ mod tests {
             boundary.extend((0..n).map(|k| [n + 2 + k, n + 1 + k]));
             let ds = vec![d; pos.len()];
             let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
-            let seeds = strip_seeds(&Square, &boundary, &pos, &uv, &ds, &mut d_at).unwrap();
+            let ring = Ring {
+                directed: &boundary,
+                pos: &pos,
+                uv: &uv,
+                d: &ds,
+            };
+            let seeds = strip_seeds(&Square, &ring, &mut d_at).unwrap();
             if !expect {
                 assert!(seeds.is_empty(), "{} seeds {width} wide", seeds.len());
                 continue;
