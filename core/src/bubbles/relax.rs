@@ -64,8 +64,9 @@ impl Neighbours {
 /// A moved bubble's d is evaluated again once it is this fraction of d
 /// from where it was last evaluated. A graded spacing changes by at most
 /// its gradient (0.4 around capped and short edges) times the distance,
-/// so d lags by under 0.1 % (twice that just after a population round
-/// renumbers the bubbles); near equilibrium bubbles move by thousandths of
+/// so d lags by under 0.1 % (after a population round, which renumbers
+/// the bubbles, every d is evaluated afresh); near equilibrium bubbles
+/// move by thousandths of
 /// d per step, and evaluating d at every step was a third of a graded
 /// part's face time (as_40mm_capot: the cone tree of `circle_points`;
 /// 2.45 → 1.85 s). 0.02 and 0.005 were faster still but lowered case B's
@@ -85,7 +86,8 @@ struct Relaxation {
     moves: Vec<Move>,
     respace: Vec<u32>,
     /// Where each bubble's d was last evaluated (see [`RESPACE_MOVE`]);
-    /// emptied when population control renumbers the bubbles.
+    /// every free bubble's is evaluated again when population control
+    /// renumbers the bubbles.
     spaced_at: Vec<P3>,
     /// Population rounds in a row that changed nothing.
     quiet_checks: usize,
@@ -237,9 +239,11 @@ impl<'a, C: Carrier> System<'a, C> {
                 let (del, add) = self.population_round(&mut st, step, s.population_every)?;
                 stats.deleted += del;
                 stats.added += add;
-                if del + add > 0 {
-                    // renumbered: every d is taken as evaluated where its
-                    // bubble is now (it was, to within RESPACE_MOVE·d)
+                if del + add > 0 && self.uniform().is_none() {
+                    // renumbered: every free bubble's d is evaluated where
+                    // it is now, so the lag never adds up across rounds
+                    let free: Vec<u32> = (self.n_fixed as u32..self.n() as u32).collect();
+                    self.respace(&free)?;
                     st.spaced_at.clone_from(&self.pos);
                 }
                 continue;
