@@ -527,8 +527,14 @@ impl ConeTree {
             return bound;
         }
         let mut best = bound;
-        let mut stack = vec![0u32];
-        while let Some(i) = stack.pop() {
+        // a node's children are pushed together, so the stack never holds
+        // more than one node per level beside the one being expanded: the
+        // tree's depth (log2(samples/LEAF) + 1) is far below 64
+        let mut stack = [0u32; 128];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let i = stack[top];
             let n = &self.nodes[i as usize];
             if n.least_c + GRADE * n.distance(p) >= best {
                 continue;
@@ -546,13 +552,10 @@ impl ConeTree {
                     self.nodes[a as usize].least_c + GRADE * self.nodes[a as usize].distance(p);
                 let db =
                     self.nodes[b as usize].least_c + GRADE * self.nodes[b as usize].distance(p);
-                if da < db {
-                    stack.push(b);
-                    stack.push(a);
-                } else {
-                    stack.push(a);
-                    stack.push(b);
-                }
+                let (first, second) = if da < db { (b, a) } else { (a, b) };
+                stack[top] = first;
+                stack[top + 1] = second;
+                top += 2;
             }
         }
         best

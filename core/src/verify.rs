@@ -397,6 +397,10 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
     }
     // first the counts (gaps, non-manifold edges, overlapping faces), then
     // orientation and folds: the message names the most basic defect
+    // segments in node order, so that the error names the same defect
+    // first in every run (a HashMap's order differs from run to run)
+    let mut order: Vec<(&(u32, u32), &Vec<SegUse>)> = segs.iter().collect();
+    order.sort_unstable_by_key(|(k, _)| **k);
     for orientation_pass in [false, true] {
         if orientation_pass && !orientation {
             break;
@@ -408,7 +412,7 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
         let mut first: Option<CheckError> = None;
         // the entities named so far (a broken face repeats them per segment)
         let mut named: std::collections::HashSet<EntityRef> = Default::default();
-        for (&(p, q), us) in &segs {
+        for &(&(p, q), us) in &order {
             let seg = Segment { p, q, uses: us };
             if let Err(e) = check_segment(model, mesh, &uses, &normals, seg, orientation_pass) {
                 match first.as_mut() {

@@ -100,10 +100,17 @@ pub fn oblique_quadtree<C: Carrier>(
         let s = MAX_LEVEL - lev;
         (i << s, j << s)
     };
+    /// A lattice corner as the split test sees it: its point, whether it
+    /// lies inside the entity and, inside, its spacing. Neighbouring cells
+    /// share corners, so each is evaluated once (keys are exact: a corner's
+    /// (u,v) is the same bits at every level, the cell size being l0/2^lev).
+    #[derive(Clone, Copy)]
     struct Corner {
         p: P3,
+        inside: bool,
         d: f64,
     }
+    let mut seen: std::collections::HashMap<(i64, i64), Corner> = std::collections::HashMap::new();
     // leaf corners as lattice keys at the finest level; deduplicated below
     let mut corners: Vec<(i64, i64)> = Vec::new();
     let mut stack: Vec<(i64, i64, u32)> = vec![(0, 0, 0)];
@@ -131,19 +138,35 @@ pub fn oblique_quadtree<C: Carrier>(
                 lev < lev_leaf
             }
             None => {
-                let inside = cuv.map(|uv| carrier.contains(uv));
-                let outside_d = if inside.iter().any(|&i| i) {
+                let ids = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+                let mut cs = [Corner {
+                    p: P3::origin(),
+                    inside: false,
+                    d: 0.0,
+                }; 4];
+                for ((c, uv), (ci, cj)) in cs.iter_mut().zip(cuv).zip(ids) {
+                    let k = key(ci, cj, lev);
+                    *c = match seen.get(&k) {
+                        Some(c) => *c,
+                        None => {
+                            let inside = carrier.contains(uv);
+                            let p = carrier.point(uv);
+                            // the spacing is only asked inside the entity
+                            // (it may be undefined outside)
+                            let d = if inside { d_at(&p, uv)? } else { f64::NAN };
+                            let c = Corner { p, inside, d };
+                            seen.insert(k, c);
+                            c
+                        }
+                    };
+                }
+                let outside_d = if cs.iter().any(|c| c.inside) {
                     d_outside[0]
                 } else {
                     d_outside[1]
                 };
-                let mut cs = Vec::with_capacity(4);
-                for (uv, inside) in cuv.into_iter().zip(inside) {
-                    let p = carrier.point(uv);
-                    // the spacing is only asked inside the entity (it may be
-                    // undefined outside)
-                    let d = if inside { d_at(&p, uv)? } else { outside_d };
-                    cs.push(Corner { p, d });
+                for c in cs.iter_mut().filter(|c| !c.inside) {
+                    c.d = outside_d;
                 }
                 // the chord of a pair, or its tangent length at the cell's
                 // centre where that is over twice the threshold: a chord
@@ -183,11 +206,17 @@ pub fn oblique_quadtree<C: Carrier>(
     let mut out = Vec::with_capacity(corners.len());
     for (ki, kj) in corners {
         let uv = at(ki, kj, MAX_LEVEL);
-        if !carrier.contains(uv) {
-            continue;
-        }
-        let p = carrier.point(uv);
-        let d = d_at(&p, uv)?;
+        let (p, d) = match seen.get(&(ki, kj)) {
+            Some(c) if !c.inside => continue,
+            Some(c) => (c.p, c.d),
+            None => {
+                if !carrier.contains(uv) {
+                    continue;
+                }
+                let p = carrier.point(uv);
+                (p, d_at(&p, uv)?)
+            }
+        };
         out.push(Seed {
             pos: p,
             params: uv,

@@ -34,6 +34,16 @@ struct FlipState<'a> {
     start: Vec<u32>,
     csr: Vec<u32>,
     extra: std::collections::HashMap<u32, Vec<u32>>,
+    /// Edge removals found not to meet the goal, with the tets of the ring
+    /// then: tets are never changed in place (only killed and added) and
+    /// nodes do not move, so while the ring holds the same tets the answer
+    /// is the same. A sweep asks again for every bad tet sharing the edge
+    /// and in every later sweep; the dynamic programme was most of the
+    /// sliver pass's time (as_0053 tetrahedra).
+    failed_edges: std::collections::HashMap<(u32, u32), Vec<u32>>,
+    /// 2-3 flips found not to meet the goal (sorted face → its two tets),
+    /// the same way.
+    failed_faces: std::collections::HashMap<[u32; 3], [u32; 2]>,
 }
 
 impl<'a> FlipState<'a> {
@@ -48,11 +58,21 @@ impl<'a> FlipState<'a> {
             start,
             csr,
             extra: Default::default(),
+            failed_edges: Default::default(),
+            failed_faces: Default::default(),
         }
     }
 
     fn q(&self, t: &[u32; 4]) -> f64 {
         objective_of(self.pos, t)
+    }
+
+    /// [`Goal::value`] of live tet `ti` (its objective is kept in `qv`).
+    fn value(&self, goal: Goal, ti: u32) -> f64 {
+        match goal {
+            Goal::Worst => self.qv[ti as usize],
+            Goal::Mean { .. } => goal.value(self.pos, &self.tets[ti as usize]),
+        }
     }
 
     fn remove(&mut self, ti: u32) {
@@ -84,6 +104,17 @@ impl<'a> FlipState<'a> {
             .collect()
     }
 
+    /// Whether a live tet has the edge (a, b).
+    fn any_around(&self, a: u32, b: u32) -> bool {
+        let v0 = a as usize;
+        let initial = &self.csr[self.start[v0] as usize..self.start[v0 + 1] as usize];
+        let added = self.extra.get(&a).map(|x| &x[..]).unwrap_or(&[]);
+        initial
+            .iter()
+            .chain(added)
+            .any(|&t| !self.dead[t as usize] && self.tets[t as usize].contains(&b))
+    }
+
     /// Sign of det(b−a, c−a, d−a) (exact).
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> f64 {
         let [a, b, c, d] = [a, b, c, d].map(|k| self.pos[k as usize]);
@@ -98,16 +129,33 @@ impl<'a> FlipState<'a> {
         if !(3..=7).contains(&m) {
             return false;
         }
+        let key = (d.min(e), d.max(e));
+        if self.failed_edges.get(&key) == Some(&ring_tets) {
+            return false;
+        }
+        if self.removes_edge(d, e, &ring_tets, goal) {
+            return true;
+        }
+        self.failed_edges.insert(key, ring_tets);
+        false
+    }
+
+    /// [`Self::try_edge_removal`] given the edge's live tets.
+    fn removes_edge(&mut self, d: u32, e: u32, ring_tets: &[u32], goal: Goal) -> bool {
+        let m = ring_tets.len();
         // ring edges x–y of each tet, chained into a cycle
         let mut links: Vec<[u32; 2]> = ring_tets
             .iter()
             .map(|&t| {
-                let o: Vec<u32> = self.tets[t as usize]
-                    .iter()
-                    .cloned()
-                    .filter(|&v| v != d && v != e)
-                    .collect();
-                [o[0], o[1]]
+                let mut o = [u32::MAX; 2];
+                let mut k = 0;
+                for &v in &self.tets[t as usize] {
+                    if v != d && v != e && k < 2 {
+                        o[k] = v;
+                        k += 1;
+                    }
+                }
+                o
             })
             .collect();
         let mut ring = vec![links[0][0], links[0][1]];
@@ -139,10 +187,7 @@ impl<'a> FlipState<'a> {
         if nrm.dot(&(p(d) - p(e))) < 0.0 {
             ring.reverse();
         }
-        let old: Vec<f64> = ring_tets
-            .iter()
-            .map(|&t| goal.value(self.pos, &self.tets[t as usize]))
-            .collect();
+        let old: Vec<f64> = ring_tets.iter().map(|&t| self.value(goal, t)).collect();
         let old_min = ring_tets
             .iter()
             .map(|&t| self.qv[t as usize])
@@ -151,13 +196,25 @@ impl<'a> FlipState<'a> {
         // best[i][j] = the best value of the polygon ring[i..=j], its worst
         // radius ratio (Goal::Worst) or its sum (Goal::Mean)
         let floor = goal.floor(old_min);
+        // a triangle whose worst tetrahedron is at most `useless` is in no
+        // triangulation that meets a Worst goal: it counts as invalid (the
+        // programme's answer is the same, and the second tetrahedron's
+        // objective is spared)
+        let useless = match goal {
+            Goal::Worst => old_min + GAIN,
+            Goal::Mean { .. } => f64::NEG_INFINITY,
+        };
         let tri_q = |i: usize, j: usize, k: usize| -> f64 {
             let (a, b, c) = (ring[i], ring[j], ring[k]);
             if self.orient(a, b, c, d) <= 0.0 || self.orient(a, c, b, e) <= 0.0 {
                 return f64::NEG_INFINITY;
             }
             let (t1, t2) = ([a, b, c, d], [a, c, b, e]);
-            let worst = self.q(&t1).min(self.q(&t2));
+            let q1 = self.q(&t1);
+            if q1 <= useless {
+                return f64::NEG_INFINITY;
+            }
+            let worst = q1.min(self.q(&t2));
             match goal {
                 Goal::Worst => worst,
                 Goal::Mean { .. } if worst < floor => f64::NEG_INFINITY,
@@ -172,8 +229,9 @@ impl<'a> FlipState<'a> {
             Goal::Worst => f64::INFINITY,
             Goal::Mean { .. } => 0.0,
         };
-        let mut best = vec![vec![unit; m]; m];
-        let mut split = vec![vec![usize::MAX; m]; m];
+        // m ≤ 7 (checked by the caller)
+        let mut best = [[unit; 7]; 7];
+        let mut split = [[usize::MAX; 7]; 7];
         for len in 2..m {
             for i in 0..m - len {
                 let j = i + len;
@@ -201,7 +259,7 @@ impl<'a> FlipState<'a> {
             stack.push((i, k));
             stack.push((k, j));
         }
-        for t in ring_tets {
+        for &t in ring_tets {
             self.remove(t);
         }
         for (a, b, c) in new_tris {
@@ -226,11 +284,26 @@ impl<'a> FlipState<'a> {
                 .unwrap_or(u32::MAX)
         };
         let (d, e) = (apex(pair[0]), apex(pair[1]));
-        if d == u32::MAX || e == u32::MAX || !self.around(&[d, e]).is_empty() {
+        if d == u32::MAX || e == u32::MAX || self.any_around(d, e) {
             return false;
         }
-        let (t0, t1) = (self.tets[pair[0] as usize], self.tets[pair[1] as usize]);
-        let old = [goal.value(self.pos, &t0), goal.value(self.pos, &t1)];
+        let mut key = f;
+        key.sort_unstable();
+        let pair = [pair[0], pair[1]];
+        if self.failed_faces.get(&key) == Some(&pair) {
+            return false;
+        }
+        if self.flips_2_3(f, pair, d, e, goal) {
+            return true;
+        }
+        self.failed_faces.insert(key, pair);
+        false
+    }
+
+    /// [`Self::try_2_3`] given the face's two tets and their apexes (not
+    /// joined by an edge).
+    fn flips_2_3(&mut self, f: [u32; 3], pair: [u32; 2], d: u32, e: u32, goal: Goal) -> bool {
+        let old = [self.value(goal, pair[0]), self.value(goal, pair[1])];
         let old_min = self.qv[pair[0] as usize].min(self.qv[pair[1] as usize]);
         let mut new = Vec::new();
         for i in 0..3 {
@@ -279,6 +352,9 @@ impl<'a> FlipState<'a> {
     }
 }
 
+/// The least rise of the worst objective a Worst flip must bring.
+const GAIN: f64 = 1e-6;
+
 /// What a flip must improve to be accepted.
 #[derive(Clone, Copy, Debug)]
 enum Goal {
@@ -313,7 +389,7 @@ impl Goal {
     /// of value `new` (their worst, or their sum) is an improvement.
     fn gains(self, old: &[f64], new: f64, n_new: usize) -> bool {
         match self {
-            Goal::Worst => new > old.iter().cloned().fold(f64::INFINITY, f64::min) + 1e-6,
+            Goal::Worst => new > old.iter().cloned().fold(f64::INFINITY, f64::min) + GAIN,
             Goal::Mean { mu, .. } => {
                 new - old.iter().sum::<f64>() > (n_new as f64 - old.len() as f64) * mu + 1e-6
             }

@@ -57,6 +57,26 @@ pub fn objective(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
         }
     }
     let mut q = rr;
+    // An angle term is below rr only when its angle is below rr times its
+    // scale (48.64° for θ_min, 75.50° for 180° − θ_max), i.e. when
+    // cmin < −cos(x) or cmax > cos(y) with x, y those angles in radians
+    // (the factors rounded up, so that the test errs towards the acos);
+    // cos z ≥ 1 − z²/2 lets a tetrahedron whose radius ratio is the
+    // minimum skip the acos (the margin 1e-12 is far above rounding and far
+    // below the bound's slack z⁴/24 where it matters)
+    let (x, y) = (rr * 0.848_94, rr * 1.317_68);
+    let (cmin, cmax) = (
+        if cmin >= -1.0 + 0.5 * x * x + 1e-12 {
+            0.0
+        } else {
+            cmin
+        },
+        if cmax <= 1.0 - 0.5 * y * y - 1e-12 {
+            0.0
+        } else {
+            cmax
+        },
+    );
     // θ_min = 180° − acos(cmin) ≥ 49.5° ⇔ cmin ≥ cos(130.5°) ≈ −0.6494
     if cmin < -0.65 {
         let lo = 180.0 - cmin.clamp(-1.0, 1.0).acos().to_degrees();
@@ -181,7 +201,7 @@ mod tests {
     #[test]
     fn objective_matches_its_definition() {
         let mut rnd = crate::volume::jitter_source(0x9e37_79b9_7f4a_7c15);
-        let mut skipped = 0;
+        let (mut skipped, mut rr_binds) = (0, 0);
         for k in 0..20000 {
             let scale = [1.0, 0.3, 0.02][k % 3];
             let p: Vec<P3> = (0..4)
@@ -204,17 +224,21 @@ mod tests {
                 rr
             } else {
                 let (lo, hi) = dihedral_extremes(&p[0], &p[1], &p[2], &p[3]);
+                let (a, b) = (1.45 * lo / 70.528_779, 1.45 * (180.0 - hi) / 109.471_221);
                 if lo >= 49.5 && hi <= 103.3 {
                     skipped += 1;
+                } else if rr < a.min(b) {
+                    // the second shortcut: the angles are extreme, yet the
+                    // radius ratio is the minimum
+                    rr_binds += 1;
                 }
-                rr.min(1.45 * lo / 70.528_779)
-                    .min(1.45 * (180.0 - hi) / 109.471_221)
+                rr.min(a).min(b)
             };
             let got = objective(&p[0], &p[1], &p[2], &p[3]);
             assert!((got - want).abs() < 1e-9, "{p:?}: {got} vs {want}");
         }
-        // the shortcut was taken on some
-        assert!(skipped > 100, "{skipped}");
+        // both shortcuts were taken on some
+        assert!(skipped > 100 && rr_binds > 100, "{skipped} {rr_binds}");
     }
 
     /// The star's sums and worst equal the measures of its tetrahedra.
