@@ -40,7 +40,7 @@ struct FlipState<'a> {
     /// is the same. A sweep asks again for every bad tet sharing the edge
     /// and in every later sweep; the dynamic programme was most of the
     /// sliver pass's time (as_0053 tetrahedra).
-    failed_edges: std::collections::HashMap<(u32, u32), Vec<u32>>,
+    failed_edges: std::collections::HashMap<(u32, u32), [u32; 7]>,
     /// 2-3 flips found not to meet the goal (sorted face → its two tets),
     /// the same way.
     failed_faces: std::collections::HashMap<[u32; 3], [u32; 2]>,
@@ -85,23 +85,33 @@ impl<'a> FlipState<'a> {
         self.tets.push(t);
         self.dead.push(false);
         for &v in &t {
-            self.extra.entry(v).or_default().push(ti);
+            let list = self.extra.entry(v).or_default();
+            list.push(ti);
+            // a node that flips over and over gathers dead tets here, and
+            // `around` reads them all (a sixth of the sliver pass on
+            // pyocc_Ventilator): drop them whenever the list doubles
+            if list.len() >= 16 && list.len().is_power_of_two() {
+                let dead = &self.dead;
+                list.retain(|&t| !dead[t as usize]);
+            }
         }
     }
 
-    /// Live tets containing every node of `vs`.
-    fn around(&self, vs: &[u32]) -> Vec<u32> {
+    /// The live tets containing every node of `vs`, written to `out`;
+    /// their number, or `None` when there are more than `out` holds (no
+    /// allocation: this is asked for every edge and face of every bad tet).
+    fn around_at_most(&self, vs: &[u32], out: &mut [u32]) -> Option<usize> {
         let v0 = vs[0] as usize;
         let initial = &self.csr[self.start[v0] as usize..self.start[v0 + 1] as usize];
         let added = self.extra.get(&vs[0]).map(|x| &x[..]).unwrap_or(&[]);
-        initial
-            .iter()
-            .chain(added)
-            .cloned()
-            .filter(|&t| {
-                !self.dead[t as usize] && vs[1..].iter().all(|v| self.tets[t as usize].contains(v))
-            })
-            .collect()
+        let mut n = 0;
+        for &t in initial.iter().chain(added) {
+            if !self.dead[t as usize] && vs[1..].iter().all(|v| self.tets[t as usize].contains(v)) {
+                *out.get_mut(n)? = t;
+                n += 1;
+            }
+        }
+        Some(n)
     }
 
     /// Whether a live tet has the edge (a, b).
@@ -124,19 +134,21 @@ impl<'a> FlipState<'a> {
     /// Removes the interior edge (d, e) if a re-triangulation of its ring
     /// (at most 7 tets around it) meets `goal`.
     fn try_edge_removal(&mut self, d: u32, e: u32, goal: Goal) -> bool {
-        let ring_tets = self.around(&[d, e]);
-        let m = ring_tets.len();
-        if !(3..=7).contains(&m) {
+        let mut ring = [u32::MAX; 7];
+        let Some(m) = self.around_at_most(&[d, e], &mut ring) else {
+            return false;
+        };
+        if m < 3 {
             return false;
         }
         let key = (d.min(e), d.max(e));
-        if self.failed_edges.get(&key) == Some(&ring_tets) {
+        if self.failed_edges.get(&key) == Some(&ring) {
             return false;
         }
-        if self.removes_edge(d, e, &ring_tets, goal) {
+        if self.removes_edge(d, e, &ring[..m], goal) {
             return true;
         }
-        self.failed_edges.insert(key, ring_tets);
+        self.failed_edges.insert(key, ring);
         false
     }
 
@@ -272,8 +284,8 @@ impl<'a> FlipState<'a> {
     /// Replaces the two tets sharing the interior face (a, b, c) by three
     /// around the edge joining their apexes, if that meets `goal`.
     fn try_2_3(&mut self, f: [u32; 3], goal: Goal) -> bool {
-        let pair = self.around(&f);
-        if pair.len() != 2 {
+        let mut pair = [u32::MAX; 2];
+        if self.around_at_most(&f, &mut pair) != Some(2) {
             return false;
         }
         let apex = |t: u32| -> u32 {
@@ -289,7 +301,6 @@ impl<'a> FlipState<'a> {
         }
         let mut key = f;
         key.sort_unstable();
-        let pair = [pair[0], pair[1]];
         if self.failed_faces.get(&key) == Some(&pair) {
             return false;
         }
