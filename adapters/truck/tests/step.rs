@@ -372,3 +372,53 @@ fn thin_walled_bottle_meshes_without_flat_tetrahedra() {
         "the thin walls needed no Steiner point: the test no longer covers them"
     );
 }
+
+/// A refinement round meshes the whole model again; faces whose boundary
+/// and spacing are unchanged replay their last mesh instead
+/// (`engine::memo`). The bottle at diag/20 takes refinement rounds, some
+/// faces are replayed, and the result is the mesh made without replaying,
+/// node for node and element for element.
+#[test]
+fn refinement_rounds_replay_unchanged_faces_without_changing_the_mesh() {
+    let (_, s) = part("b3d_bottle");
+    let run = |d: f64, replay_faces: bool| {
+        let opts = Options {
+            dim: Some(3),
+            replay_faces,
+            ..Default::default()
+        };
+        mesh_model(&s.model, &Constant(d), &opts).unwrap_or_else(|e| panic!("{e}"))
+    };
+    // sizes about diag/20 at which the thin walls need a round of refined
+    // places (which ones do depends on rounding; the first that does)
+    let (d, (mesh, report)) = [4.9, 4.85, 4.75]
+        .into_iter()
+        .map(|d| (d, run(d, true)))
+        .find(|(_, (_, r))| r.refinement_rounds > 0)
+        .expect("no refinement round at any size: the test no longer covers replaying");
+    assert!(
+        report.faces_replayed > 0 && report.faces_replayed < report.faces.len(),
+        "{} of {} faces replayed",
+        report.faces_replayed,
+        report.faces.len()
+    );
+    let (plain, plain_report) = run(d, false);
+    assert_eq!(plain_report.faces_replayed, 0);
+    assert_eq!(mesh.nodes.len(), plain.nodes.len());
+    for (a, b) in mesh.nodes.iter().zip(&plain.nodes) {
+        assert_eq!((a.pos, a.entity, a.params), (b.pos, b.entity, b.params));
+    }
+    let elements = |m: &bubblemesh_core::Mesh| {
+        (
+            m.triangles
+                .iter()
+                .map(|t| (t.nodes, t.entity))
+                .collect::<Vec<_>>(),
+            m.tetrahedra
+                .iter()
+                .map(|t| (t.nodes, t.entity))
+                .collect::<Vec<_>>(),
+        )
+    };
+    assert_eq!(elements(&mesh), elements(&plain));
+}

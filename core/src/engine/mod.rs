@@ -28,6 +28,7 @@
 //! snapshots of the bubbles; this module reports each entity finished and
 //! the passes of each volume (from its report, once the volume is done).
 
+mod memo;
 pub mod refine;
 
 use std::time::Instant;
@@ -79,6 +80,10 @@ pub struct Report {
     pub refined_places: Vec<refine::RefinedPlace>,
     /// How many times the model was meshed again finer (0: once, as asked).
     pub refinement_rounds: usize,
+    /// Faces of the last round whose inputs (boundary nodes, spacing) were
+    /// those of an earlier round: their mesh was replayed, not made again
+    /// (the same triangles; see `engine::memo`).
+    pub faces_replayed: usize,
     /// Where separate parts of the mesh (solids of an assembly) touch
     /// without being joined ([`crate::verify::touching_parts`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -122,8 +127,18 @@ pub fn mesh_model(
     let mut dropped: Option<crate::circle_points::CirclePointsReport> = None;
     // released faces that failed again and were refined once with the cap on
     let mut retried: std::collections::HashSet<u32> = Default::default();
+    // faces whose inputs did not change since the last attempt are replayed
+    let mut memos: memo::FaceMemos = Vec::new();
     loop {
         rounds += 1;
+        // per face: the cap kept (1), released (2) or gone (0)
+        let cap_state: Vec<u64> = (0..model.faces.len() as u32)
+            .map(|f| match &capped {
+                None => 0,
+                Some(c) if c.is_released(f) => 2,
+                Some(_) => 1,
+            })
+            .collect();
         let boundary_spacing: &dyn Spacing = match &capped {
             Some(c) => c,
             None => spacing,
@@ -132,7 +147,12 @@ pub fn mesh_model(
             inner: boundary_spacing,
             refinement: &refinement,
         };
-        match mesh_once(model, &refined, spacing, opts, &refinement) {
+        let face_memo = FaceMemory {
+            memos: &mut memos,
+            refinement: &refinement,
+            cap_state: &cap_state,
+        };
+        match mesh_once(model, &refined, spacing, opts, &refinement, face_memo) {
             Ok((mesh, mut report)) => {
                 report.circle_points = capped
                     .as_ref()
@@ -297,6 +317,7 @@ fn mesh_once(
     volume_spacing: &dyn Spacing,
     opts: &Options,
     refinement: &refine::Refinement,
+    face_memo: FaceMemory<'_>,
 ) -> Result<(Mesh, Report), Box<Failed>> {
     let model_dim = model.dim();
     let dim = opts.dim.unwrap_or(model_dim);
@@ -338,7 +359,7 @@ fn mesh_once(
     a.report.timings.edges_s = t_edges.elapsed().as_secs_f64();
     // 3. faces
     if dim >= 2 {
-        a.faces(&edge_nodes)?;
+        a.faces(&edge_nodes, face_memo)?;
     }
     // closed shells: every volume's face triangles outward (a face shared
     // by two volumes keeps the first volume's orientation)
@@ -366,6 +387,15 @@ fn mesh_once(
     report.triangles = mesh.triangles.len();
     report.tetrahedra = mesh.tetrahedra.len();
     Ok((mesh, report))
+}
+
+/// What the faces of an attempt may replay from the last one
+/// (see [`memo`]).
+struct FaceMemory<'m> {
+    memos: &'m mut memo::FaceMemos,
+    refinement: &'m refine::Refinement,
+    /// Per face: the circle-point cap kept (1), released (2) or gone (0).
+    cap_state: &'m [u64],
 }
 
 /// The state of one attempt: what is meshed so far, dimension by
@@ -475,11 +505,42 @@ impl Attempt<'_> {
     /// Meshes every face. A face that fails does not stop the others, so
     /// that one refinement round covers every face that needs it; the
     /// error names them all.
-    fn faces(&mut self, edge_nodes: &[Vec<u32>]) -> Result<(), Box<Failed>> {
+    fn faces(
+        &mut self,
+        edge_nodes: &[Vec<u32>],
+        memory: FaceMemory<'_>,
+    ) -> Result<(), Box<Failed>> {
         let (model, spacing, opts) = (self.model, self.spacing, self.opts);
         let mut failed: Vec<(u32, MeshError)> = Vec::new();
         for fi in 0..model.faces.len() {
             let e = EntityRef::new(2, fi as u32);
+            // what the spacing on the face depends on besides its boundary
+            let spacing_key = [
+                memory.refinement.face_level(fi) as u64,
+                memory.cap_state.get(fi).copied().unwrap_or(0),
+                spacing.constant_on(e).map_or(u64::MAX, f64::to_bits),
+                spacing.constant().map_or(u64::MAX, f64::to_bits),
+            ];
+            let at = memo::Attempted {
+                model,
+                refinement: memory.refinement,
+                edge_nodes,
+                node_d: &self.node_d,
+            };
+            let replayed = opts
+                .replay_faces
+                .then(|| memo::replay(memory.memos, &at, fi, &spacing_key, &mut self.mesh))
+                .flatten();
+            if let Some(fr) = replayed {
+                self.report.faces.push(fr);
+                self.report.faces_replayed += 1;
+                opts.tell(&Event::Done {
+                    entity: e,
+                    mesh: &self.mesh,
+                });
+                continue;
+            }
+            let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
             let mut face = |grow: bool| {
                 let inputs = FaceInputs {
                     model,
@@ -499,6 +560,13 @@ impl Attempt<'_> {
                 r => r,
             } {
                 Ok(fr) => {
+                    let at = memo::Attempted {
+                        model,
+                        refinement: memory.refinement,
+                        edge_nodes,
+                        node_d: &self.node_d,
+                    };
+                    memo::record(memory.memos, &at, fi, &spacing_key, &self.mesh, before, &fr);
                     self.report.faces.push(fr);
                     opts.tell(&Event::Done {
                         entity: e,

@@ -239,6 +239,38 @@ impl Refinement {
             })
     }
 
+    /// The refinement level of face `f` (0: the requested spacing).
+    pub fn face_level(&self, f: usize) -> u8 {
+        self.face.get(f).copied().unwrap_or(0)
+    }
+
+    /// A fingerprint of every place that may change the spacing inside the
+    /// box [`lo`, `hi`]: those whose reach, widened by a grid cell (the grid
+    /// lists a place in every cell its reach box touches), meets the box,
+    /// with everything that sets their cap. Equal fingerprints mean equal
+    /// [`Refinement::place_cap`] everywhere in the box.
+    pub(crate) fn places_key(&self, lo: &P3, hi: &P3) -> Vec<u64> {
+        let mut key = Vec::new();
+        for (k, p) in self.places.iter().enumerate() {
+            let r = p.reach() + self.cell;
+            let near = (0..3).all(|i| p.centre[i] + r >= lo[i] && p.centre[i] - r <= hi[i]);
+            if near {
+                key.push(k as u64);
+                key.push(p.level as u64);
+                key.extend(
+                    [
+                        p.centre.x, p.centre.y, p.centre.z, p.radius, p.d_req, p.scale,
+                    ]
+                    .map(f64::to_bits),
+                );
+            }
+        }
+        if !key.is_empty() {
+            key.push(self.cell.to_bits());
+        }
+        key
+    }
+
     /// The refined places, for the report.
     pub fn places(&self) -> Vec<RefinedPlace> {
         self.places

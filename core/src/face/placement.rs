@@ -100,17 +100,7 @@ pub fn oblique_quadtree<C: Carrier>(
         let s = MAX_LEVEL - lev;
         (i << s, j << s)
     };
-    /// A lattice corner as the split test sees it: its point, whether it
-    /// lies inside the entity and, inside, its spacing. Neighbouring cells
-    /// share corners, so each is evaluated once (keys are exact: a corner's
-    /// (u,v) is the same bits at every level, the cell size being l0/2^lev).
-    #[derive(Clone, Copy)]
-    struct Corner {
-        p: P3,
-        inside: bool,
-        d: f64,
-    }
-    let mut seen: std::collections::HashMap<(i64, i64), Corner> = std::collections::HashMap::new();
+    let mut seen = Corners::default();
     // leaf corners as lattice keys at the finest level; deduplicated below
     let mut corners: Vec<(i64, i64)> = Vec::new();
     let mut stack: Vec<(i64, i64, u32)> = vec![(0, 0, 0)];
@@ -139,48 +129,11 @@ pub fn oblique_quadtree<C: Carrier>(
             }
             None => {
                 let ids = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
-                let mut cs = [Corner {
-                    p: P3::origin(),
-                    inside: false,
-                    d: 0.0,
-                }; 4];
+                let mut cs = [Corner::default(); 4];
                 for ((c, uv), (ci, cj)) in cs.iter_mut().zip(cuv).zip(ids) {
-                    let k = key(ci, cj, lev);
-                    *c = match seen.get(&k) {
-                        Some(c) => *c,
-                        None => {
-                            let inside = carrier.contains(uv);
-                            let p = carrier.point(uv);
-                            // the spacing is only asked inside the entity
-                            // (it may be undefined outside)
-                            let d = if inside { d_at(&p, uv)? } else { f64::NAN };
-                            let c = Corner { p, inside, d };
-                            seen.insert(k, c);
-                            c
-                        }
-                    };
+                    *c = seen.at(carrier, key(ci, cj, lev), uv, d_at)?;
                 }
-                let outside_d = if cs.iter().any(|c| c.inside) {
-                    d_outside[0]
-                } else {
-                    d_outside[1]
-                };
-                for c in cs.iter_mut().filter(|c| !c.inside) {
-                    c.d = outside_d;
-                }
-                // the chord of a pair, or its tangent length at the cell's
-                // centre where that is over twice the threshold: a chord
-                // wrapping around a periodic surface is short however far
-                // apart the corners are along it
-                let centre = [0.5 * (cuv[0][0] + cuv[2][0]), 0.5 * (cuv[0][1] + cuv[2][1])];
-                [(0, 1), (1, 2), (2, 3), (1, 3)].iter().any(|&(a, b)| {
-                    let limit = SPLIT * 0.5 * (cs[a].d + cs[b].d);
-                    let duv = [cuv[b][0] - cuv[a][0], cuv[b][1] - cuv[a][1]];
-                    (cs[a].p - cs[b].p).norm() > limit
-                        || carrier
-                            .tangent_length(centre, duv)
-                            .is_some_and(|t| t > 2.0 * limit)
-                })
+                graded_split(carrier, &cuv, cs, d_outside, SPLIT)
             }
         };
         if split && lev < MAX_LEVEL {
@@ -206,7 +159,7 @@ pub fn oblique_quadtree<C: Carrier>(
     let mut out = Vec::with_capacity(corners.len());
     for (ki, kj) in corners {
         let uv = at(ki, kj, MAX_LEVEL);
-        let (p, d) = match seen.get(&(ki, kj)) {
+        let (p, d) = match seen.0.get(&(ki, kj)) {
             Some(c) if !c.inside => continue,
             Some(c) => (c.p, c.d),
             None => {
@@ -225,6 +178,77 @@ pub fn oblique_quadtree<C: Carrier>(
     }
     Ok(out)
 }
+/// A lattice corner of [`oblique_quadtree`] as its split test sees it: its
+/// point, whether it lies inside the entity and, inside, its spacing.
+#[derive(Clone, Copy, Default)]
+struct Corner {
+    p: P3,
+    inside: bool,
+    d: f64,
+}
+
+/// The corners evaluated so far, by lattice key at the finest level.
+/// Neighbouring cells share corners, so each is evaluated once; keys are
+/// exact, a corner's (u,v) being the same bits at every level (the cell
+/// size is l0/2^lev).
+#[derive(Default)]
+struct Corners(std::collections::HashMap<(i64, i64), Corner>);
+
+impl Corners {
+    /// The corner of key `k` at (u,v) `uv`, evaluated if it is new.
+    fn at<C: Carrier>(
+        &mut self,
+        carrier: &C,
+        k: (i64, i64),
+        uv: [f64; 2],
+        d_at: &mut FaceSpacing<'_>,
+    ) -> Result<Corner, MeshError> {
+        if let Some(c) = self.0.get(&k) {
+            return Ok(*c);
+        }
+        let inside = carrier.contains(uv);
+        let p = carrier.point(uv);
+        // the spacing is only asked inside the entity (it may be undefined
+        // outside)
+        let d = if inside { d_at(&p, uv)? } else { f64::NAN };
+        let c = Corner { p, inside, d };
+        self.0.insert(k, c);
+        Ok(c)
+    }
+}
+
+/// The split test of [`oblique_quadtree`] under a graded spacing: whether a
+/// pair of the cell's corners is farther apart than `split` times their
+/// mean spacing, by its chord, or by its tangent length at the cell's
+/// centre where that is over twice the threshold (a chord wrapping around
+/// a periodic surface is short however far apart the corners are along
+/// it). Corners outside take `d_outside` (see there).
+fn graded_split<C: Carrier>(
+    carrier: &C,
+    cuv: &[[f64; 2]; 4],
+    mut cs: [Corner; 4],
+    d_outside: [f64; 2],
+    split: f64,
+) -> bool {
+    let outside_d = if cs.iter().any(|c| c.inside) {
+        d_outside[0]
+    } else {
+        d_outside[1]
+    };
+    for c in cs.iter_mut().filter(|c| !c.inside) {
+        c.d = outside_d;
+    }
+    let centre = [0.5 * (cuv[0][0] + cuv[2][0]), 0.5 * (cuv[0][1] + cuv[2][1])];
+    [(0, 1), (1, 2), (2, 3), (1, 3)].iter().any(|&(a, b)| {
+        let limit = split * 0.5 * (cs[a].d + cs[b].d);
+        let duv = [cuv[b][0] - cuv[a][0], cuv[b][1] - cuv[a][1]];
+        (cs[a].p - cs[b].p).norm() > limit
+            || carrier
+                .tangent_length(centre, duv)
+                .is_some_and(|t| t > 2.0 * limit)
+    })
+}
+
 /// Boundary-layer seeds: for each boundary segment a→b (face on its left) one
 /// bubble at the apex of the triangle whose sides to a and b are the stable
 /// distance r0 (an equilateral triangle when the spacing is uniform).
