@@ -403,6 +403,15 @@ impl<'a> CirclePoints<'a> {
             .unwrap_or(false)
     }
 
+    /// Whether the requested spacing applies again on edge `edge` (an edge
+    /// of a released face).
+    pub fn is_edge_released(&self, edge: u32) -> bool {
+        self.edge_released
+            .get(edge as usize)
+            .copied()
+            .unwrap_or(false)
+    }
+
     /// Whether the cap applies to a query on `e`.
     fn applies(&self, e: EntityRef) -> bool {
         match e.dim {

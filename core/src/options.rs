@@ -156,11 +156,11 @@ pub struct Options {
     /// graded away from it ([`crate::circle_points`]); 0 turns it off.
     /// Default [`DEFAULT_CIRCLE_POINTS`].
     pub circle_points: u32,
-    /// Between refinement rounds, replay the mesh of a face whose boundary
-    /// and spacing did not change instead of meshing it again (the same
-    /// triangles, faster; `engine::memo`). On by default; off only to
-    /// check that replaying changes nothing.
-    pub replay_faces: bool,
+    /// Between refinement rounds, replay the nodes of an edge and the mesh
+    /// of a face whose inputs (boundary, spacing) did not change instead of
+    /// meshing them again (the same mesh, faster; `engine::memo`). On by
+    /// default; off only to check that replaying changes nothing.
+    pub replay_unchanged: bool,
 }
 
 /// Nodes per full turn of a curved edge at the least, by default (Gmsh's
@@ -182,7 +182,7 @@ impl Default for Options {
             observer: None,
             warm: None,
             circle_points: DEFAULT_CIRCLE_POINTS,
-            replay_faces: true,
+            replay_unchanged: true,
         }
     }
 }
@@ -196,7 +196,7 @@ impl std::fmt::Debug for Options {
             .field("volume_lattice", &self.volume_lattice)
             .field("warm", &self.warm.is_some())
             .field("circle_points", &self.circle_points)
-            .field("replay_faces", &self.replay_faces)
+            .field("replay_unchanged", &self.replay_unchanged)
             .finish()
     }
 }

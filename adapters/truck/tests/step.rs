@@ -381,10 +381,10 @@ fn thin_walled_bottle_meshes_without_flat_tetrahedra() {
 #[test]
 fn refinement_rounds_replay_unchanged_faces_without_changing_the_mesh() {
     let (_, s) = part("b3d_bottle");
-    let run = |d: f64, replay_faces: bool| {
+    let run = |d: f64, replay_unchanged: bool| {
         let opts = Options {
             dim: Some(3),
-            replay_faces,
+            replay_unchanged,
             ..Default::default()
         };
         mesh_model(&s.model, &Constant(d), &opts).unwrap_or_else(|e| panic!("{e}"))

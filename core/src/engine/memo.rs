@@ -1,4 +1,5 @@
-//! Faces carried over from one attempt of [`super::mesh_model`] to the next.
+//! Edges and faces carried over from one attempt of [`super::mesh_model`]
+//! to the next.
 //!
 //! A failed attempt refines a few faces or places and the whole model is
 //! meshed again; most faces then see exactly what they saw before: the same
@@ -16,9 +17,13 @@
 //!   places that reach the box of its previous mesh (grown by its longest
 //!   mesh edge, so that the surface between nodes is inside too).
 //!
-//! Invariant: a replayed face adds exactly the nodes and triangles that
-//! meshing it again would add, with its boundary nodes renumbered to this
-//! attempt's ids.
+//! Edges the same way ([`EdgeMemo`]): their interior nodes depend on the
+//! spacing along them (refinement level, cap state, `constant_on`, the
+//! spacing at their vertices, the places reaching their box).
+//!
+//! Invariant: a replayed edge or face adds exactly the nodes (and
+//! triangles) that meshing it again would add, a face's boundary nodes
+//! renumbered to this attempt's ids.
 
 use crate::face::FaceReport;
 use crate::geom::P3;
@@ -61,6 +66,118 @@ pub(crate) struct Attempted<'a> {
     pub edge_nodes: &'a [Vec<u32>],
     /// d at each node of the mesh so far.
     pub node_d: &'a [f64],
+}
+
+/// One edge's nodes from an earlier attempt and what they depended on:
+/// the caller's key (refinement level, cap state, `constant_on`, the
+/// spacing at its two vertices) and the places reaching its box.
+pub(crate) struct EdgeMemo {
+    key: Vec<u64>,
+    lo: P3,
+    hi: P3,
+    places: Vec<u64>,
+    /// Its interior nodes, start to end, and their spacing.
+    nodes: Vec<Node>,
+    d: Vec<f64>,
+}
+
+/// The edges' memos, by edge id.
+pub(crate) type EdgeMemos = Vec<Option<EdgeMemo>>;
+
+/// Replays edge `ei`'s interior nodes into `mesh` and `node_d` if its memo
+/// holds: returns its node ids from `start` to `end`, or `None` (nothing
+/// added).
+pub(crate) fn replay_edge(
+    memos: &EdgeMemos,
+    refinement: &Refinement,
+    ei: usize,
+    key: &[u64],
+    (start, end): (u32, u32),
+    mesh: &mut Mesh,
+    node_d: &mut Vec<f64>,
+) -> Option<Vec<u32>> {
+    let memo = memos.get(ei)?.as_ref()?;
+    if memo.key != key || memo.places != refinement.places_key(&memo.lo, &memo.hi) {
+        return None;
+    }
+    let first = mesh.nodes.len() as u32;
+    mesh.nodes.extend_from_slice(&memo.nodes);
+    node_d.extend_from_slice(&memo.d);
+    let mut ids = vec![start];
+    ids.extend(first..first + memo.nodes.len() as u32);
+    ids.push(end);
+    Some(ids)
+}
+
+/// Remembers edge `ei`'s nodes `ids` (start, the interior nodes it added
+/// at the end of `mesh` and `node_d`, end); nothing when its interior
+/// nodes are not those.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn record_edge(
+    memos: &mut EdgeMemos,
+    n_edges: usize,
+    refinement: &Refinement,
+    ei: usize,
+    key: Vec<u64>,
+    ids: &[u32],
+    mesh: &Mesh,
+    node_d: &[f64],
+) {
+    if memos.len() < n_edges {
+        memos.resize_with(n_edges, || None);
+    }
+    memos[ei] = None;
+    let n = ids.len();
+    if n < 2 || node_d.len() != mesh.nodes.len() {
+        return;
+    }
+    let interior = (mesh.nodes.len() + 2 - n)..mesh.nodes.len();
+    if !ids[1..n - 1]
+        .iter()
+        .zip(interior.clone())
+        .all(|(&v, k)| v as usize == k)
+    {
+        return;
+    }
+    let pts: Vec<P3> = ids.iter().map(|&v| mesh.nodes[v as usize].pos).collect();
+    let (mut lo, mut hi) = (pts[0], pts[0]);
+    let mut longest: f64 = 0.0;
+    for w in pts.windows(2) {
+        longest = longest.max((w[1] - w[0]).norm());
+    }
+    for p in &pts {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    // the curve between two nodes bulges less than their distance
+    let grow = nalgebra::Vector3::repeat(longest);
+    let (lo, hi) = (lo - grow, hi + grow);
+    memos[ei] = Some(EdgeMemo {
+        key,
+        places: refinement.places_key(&lo, &hi),
+        lo,
+        hi,
+        nodes: mesh.nodes[interior.clone()].to_vec(),
+        d: node_d[interior].to_vec(),
+    });
+}
+
+/// Per edge, the box its remembered nodes lie in (grown by its longest
+/// segment).
+pub(crate) fn edge_boxes(memos: &EdgeMemos) -> Vec<Option<(P3, P3)>> {
+    memos
+        .iter()
+        .map(|m| m.as_ref().map(|m| (m.lo, m.hi)))
+        .collect()
+}
+
+/// Per face, the box its remembered mesh lies in (grown by its longest
+/// mesh edge, so that the surface between its nodes is inside too).
+pub(crate) fn boxes(memos: &FaceMemos) -> Vec<Option<(P3, P3)>> {
+    memos
+        .iter()
+        .map(|m| m.as_ref().map(|m| (m.lo, m.hi)))
+        .collect()
 }
 
 /// The boundary node ids of face `fi` in a fixed order: its loops' edges,
@@ -393,5 +510,63 @@ mod tests {
         let mut far = Refinement::new(&m);
         assert!(far.bump_spots(&[(P3::new(50.0, 0.0, 0.0), 0.1)], |_| 0.5, "test"));
         assert!(try_with(&far, &d, &[7], false));
+    }
+
+    /// An edge's interior nodes are replayed after the vertices, with
+    /// their spacing, while its key and the places near it are unchanged.
+    #[test]
+    fn an_unchanged_edge_replays_its_interior_nodes() {
+        let (m, _, mut mesh) = square();
+        let mut node_d = vec![0.5; 4];
+        // edge 0 from vertex 0 to 1 with two interior nodes
+        for x in [0.3, 0.7] {
+            mesh.nodes.push(Node {
+                pos: P3::new(x, 0.0, 0.0),
+                entity: EntityRef::new(1, 0),
+                params: [x, 0.0],
+            });
+            node_d.push(0.4);
+        }
+        let refinement = Refinement::new(&m);
+        let mut memos = EdgeMemos::new();
+        record_edge(
+            &mut memos,
+            4,
+            &refinement,
+            0,
+            vec![1, 2],
+            &[0, 4, 5, 1],
+            &mesh,
+            &node_d,
+        );
+        let (_, _, mut next) = square();
+        let mut next_d = vec![0.5; 4];
+        let ids = replay_edge(
+            &memos,
+            &refinement,
+            0,
+            &[1, 2],
+            (0, 1),
+            &mut next,
+            &mut next_d,
+        );
+        assert_eq!(ids, Some(vec![0, 4, 5, 1]));
+        assert_eq!(next.nodes[5].pos, P3::new(0.7, 0.0, 0.0));
+        assert_eq!(next_d, [0.5, 0.5, 0.5, 0.5, 0.4, 0.4]);
+        let (_, _, mut again) = square();
+        let mut again_d = vec![0.5; 4];
+        let other_key = replay_edge(
+            &memos,
+            &refinement,
+            0,
+            &[1, 3],
+            (0, 1),
+            &mut again,
+            &mut again_d,
+        );
+        assert!(other_key.is_none() && again.nodes.len() == 4 && again_d.len() == 4);
+        let mut near = Refinement::new(&m);
+        assert!(near.bump_spots(&[(P3::new(0.5, 0.1, 0.0), 0.05)], |_| 0.5, "test"));
+        assert!(replay_edge(&memos, &near, 0, &[1, 2], (0, 1), &mut again, &mut again_d).is_none());
     }
 }

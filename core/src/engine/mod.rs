@@ -129,6 +129,7 @@ pub fn mesh_model(
     let mut retried: std::collections::HashSet<u32> = Default::default();
     // faces whose inputs did not change since the last attempt are replayed
     let mut memos: memo::FaceMemos = Vec::new();
+    let mut edge_memos: memo::EdgeMemos = Vec::new();
     loop {
         rounds += 1;
         // per face: the cap kept (1), released (2) or gone (0)
@@ -139,18 +140,30 @@ pub fn mesh_model(
                 Some(_) => 1,
             })
             .collect();
+        let edge_cap_state: Vec<u64> = (0..model.edges.len() as u32)
+            .map(|e| match &capped {
+                None => 0,
+                Some(c) if c.is_edge_released(e) => 2,
+                Some(_) => 1,
+            })
+            .collect();
         let boundary_spacing: &dyn Spacing = match &capped {
             Some(c) => c,
             None => spacing,
         };
+        let (face_boxes, edge_boxes) = (memo::boxes(&memos), memo::edge_boxes(&edge_memos));
         let refined = refine::Refined {
             inner: boundary_spacing,
             refinement: &refinement,
+            face_boxes: &face_boxes,
+            edge_boxes: &edge_boxes,
         };
         let face_memo = FaceMemory {
             memos: &mut memos,
+            edge_memos: &mut edge_memos,
             refinement: &refinement,
             cap_state: &cap_state,
+            edge_cap_state: &edge_cap_state,
         };
         match mesh_once(model, &refined, spacing, opts, &refinement, face_memo) {
             Ok((mesh, mut report)) => {
@@ -351,8 +364,9 @@ fn mesh_once(
     a.vertices()?;
     // 2. edges
     let t_edges = Instant::now();
+    let mut face_memo = face_memo;
     let edge_nodes = if dim >= 1 {
-        a.edges(refinement)?
+        a.edges(refinement, &mut face_memo)?
     } else {
         Vec::new()
     };
@@ -393,9 +407,12 @@ fn mesh_once(
 /// (see [`memo`]).
 struct FaceMemory<'m> {
     memos: &'m mut memo::FaceMemos,
+    edge_memos: &'m mut memo::EdgeMemos,
     refinement: &'m refine::Refinement,
     /// Per face: the circle-point cap kept (1), released (2) or gone (0).
     cap_state: &'m [u64],
+    /// The same per edge.
+    edge_cap_state: &'m [u64],
 }
 
 /// The state of one attempt: what is meshed so far, dimension by
@@ -440,7 +457,11 @@ impl Attempt<'_> {
     }
 
     /// Meshes every edge; returns the node ids along each.
-    fn edges(&mut self, refinement: &refine::Refinement) -> Result<Vec<Vec<u32>>, MeshError> {
+    fn edges(
+        &mut self,
+        refinement: &refine::Refinement,
+        memory: &mut FaceMemory<'_>,
+    ) -> Result<Vec<Vec<u32>>, MeshError> {
         let (model, spacing, opts) = (self.model, self.spacing, self.opts);
         let mesh = &mut self.mesh;
         let node_d = &mut self.node_d;
@@ -453,8 +474,48 @@ impl Attempt<'_> {
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
             let start = opts.warm.as_deref().and_then(|w| w.of(e));
-            let mut ids = mesh_edge(model, ei, spacing, opts.fast, start, mesh, node_d)
-                .map_err(|x| x.within(model.describe(e)))?;
+            // what the edge's nodes depend on besides the places near it
+            let d_bits = |v: u32| node_d.get(v as usize).map_or(u64::MAX, |d| d.to_bits());
+            let key = vec![
+                refinement.edge_level(ei) as u64,
+                memory.edge_cap_state.get(ei).copied().unwrap_or(0),
+                spacing.constant_on(e).map_or(u64::MAX, f64::to_bits),
+                spacing.constant().map_or(u64::MAX, f64::to_bits),
+                d_bits(edge.start),
+                d_bits(edge.end),
+            ];
+            let replayed = opts
+                .replay_unchanged
+                .then(|| {
+                    memo::replay_edge(
+                        memory.edge_memos,
+                        refinement,
+                        ei,
+                        &key,
+                        (edge.start, edge.end),
+                        mesh,
+                        node_d,
+                    )
+                })
+                .flatten();
+            let mut ids = match replayed {
+                Some(ids) => ids,
+                None => {
+                    let ids = mesh_edge(model, ei, spacing, opts.fast, start, mesh, node_d)
+                        .map_err(|x| x.within(model.describe(e)))?;
+                    memo::record_edge(
+                        memory.edge_memos,
+                        model.edges.len(),
+                        refinement,
+                        ei,
+                        key,
+                        &ids,
+                        mesh,
+                        node_d,
+                    );
+                    ids
+                }
+            };
             // at least the refinement's segments (a refined edge shorter
             // than its spacing), and two where another one-segment edge
             // already joins the same vertices: equal parameter steps
@@ -528,7 +589,7 @@ impl Attempt<'_> {
                 node_d: &self.node_d,
             };
             let replayed = opts
-                .replay_faces
+                .replay_unchanged
                 .then(|| memo::replay(memory.memos, &at, fi, &spacing_key, &mut self.mesh))
                 .flatten();
             if let Some(fr) = replayed {

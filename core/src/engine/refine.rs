@@ -333,6 +333,11 @@ impl Refinement {
         any
     }
 
+    /// The refinement level of edge `e` (0: the requested spacing).
+    pub fn edge_level(&self, e: usize) -> u8 {
+        self.edge.get(e).copied().unwrap_or(0)
+    }
+
     /// The least number of segments of edge `e`.
     pub fn min_segments(&self, e: usize) -> usize {
         self.edge.get(e).map_or(1, |&l| l as usize + 1)
@@ -376,6 +381,30 @@ impl Refinement {
 pub(crate) struct Refined<'a> {
     pub inner: &'a dyn Spacing,
     pub refinement: &'a Refinement,
+    /// Per face and per edge, the box its mesh of the last attempt lies in
+    /// (grown to cover the geometry between its nodes), where there was
+    /// one: an entity at level 0 that no place reaches keeps `inner`'s
+    /// constant spacing.
+    pub face_boxes: &'a [Option<(P3, P3)>],
+    pub edge_boxes: &'a [Option<(P3, P3)>],
+}
+
+impl Refined<'_> {
+    /// Whether the refinement leaves the spacing on entity `e` (an edge or
+    /// a face) as `inner`'s.
+    fn untouched(&self, e: crate::model::EntityRef) -> bool {
+        let (level, boxes) = match e.dim {
+            1 => (self.refinement.edge_level(e.id as usize), self.edge_boxes),
+            2 => (self.refinement.face_level(e.id as usize), self.face_boxes),
+            _ => return false,
+        };
+        level == 0
+            && boxes
+                .get(e.id as usize)
+                .copied()
+                .flatten()
+                .is_some_and(|(lo, hi)| self.refinement.places_key(&lo, &hi).is_empty())
+    }
 }
 
 impl Spacing for Refined<'_> {
@@ -396,7 +425,9 @@ impl Spacing for Refined<'_> {
         }
     }
     fn constant_on(&self, e: crate::model::EntityRef) -> Option<f64> {
-        if self.refinement.is_empty() {
+        // an edge or face the refinement does not touch stays uniform, so
+        // that its mesh is the one it had (and is replayed: engine::memo)
+        if self.refinement.is_empty() || self.untouched(e) {
             self.inner.constant_on(e)
         } else {
             None
