@@ -132,21 +132,7 @@ pub fn mesh_model(
     let mut edge_memos: memo::EdgeMemos = Vec::new();
     loop {
         rounds += 1;
-        // per face: the cap kept (1), released (2) or gone (0)
-        let cap_state: Vec<u64> = (0..model.faces.len() as u32)
-            .map(|f| match &capped {
-                None => 0,
-                Some(c) if c.is_released(f) => 2,
-                Some(_) => 1,
-            })
-            .collect();
-        let edge_cap_state: Vec<u64> = (0..model.edges.len() as u32)
-            .map(|e| match &capped {
-                None => 0,
-                Some(c) if c.is_edge_released(e) => 2,
-                Some(_) => 1,
-            })
-            .collect();
+        let (cap_state, edge_cap_state) = cap_states(model, capped.as_ref());
         let boundary_spacing: &dyn Spacing = match &capped {
             Some(c) => c,
             None => spacing,
@@ -268,6 +254,27 @@ pub fn mesh_model(
             }
         }
     }
+}
+
+/// Per face and per edge: the circle-point cap kept (1), released (2) or
+/// gone (0), for the memos' keys.
+fn cap_states(
+    model: &Model,
+    capped: Option<&crate::circle_points::CirclePoints<'_>>,
+) -> (Vec<u64>, Vec<u64>) {
+    let state = |released: bool| match capped {
+        None => 0,
+        Some(_) if released => 2,
+        Some(_) => 1,
+    };
+    (
+        (0..model.faces.len() as u32)
+            .map(|f| state(capped.is_some_and(|c| c.is_released(f))))
+            .collect(),
+        (0..model.edges.len() as u32)
+            .map(|e| state(capped.is_some_and(|c| c.is_edge_released(e))))
+            .collect(),
+    )
 }
 
 /// A failed attempt: the error, and the faces and edges whose refinement
