@@ -144,14 +144,14 @@ pub fn mesh_model(
             face_boxes: &face_boxes,
             edge_boxes: &edge_boxes,
         };
-        let face_memo = FaceMemory {
+        let replay = Replay {
             memos: &mut memos,
             edge_memos: &mut edge_memos,
             refinement: &refinement,
             cap_state: &cap_state,
             edge_cap_state: &edge_cap_state,
         };
-        match mesh_once(model, &refined, spacing, opts, &refinement, face_memo) {
+        match mesh_once(model, &refined, spacing, opts, &refinement, replay) {
             Ok((mesh, mut report)) => {
                 report.circle_points = capped
                     .as_ref()
@@ -337,7 +337,7 @@ fn mesh_once(
     volume_spacing: &dyn Spacing,
     opts: &Options,
     refinement: &refine::Refinement,
-    face_memo: FaceMemory<'_>,
+    replay: Replay<'_>,
 ) -> Result<(Mesh, Report), Box<Failed>> {
     let model_dim = model.dim();
     let dim = opts.dim.unwrap_or(model_dim);
@@ -371,16 +371,16 @@ fn mesh_once(
     a.vertices()?;
     // 2. edges
     let t_edges = Instant::now();
-    let mut face_memo = face_memo;
+    let mut replay = replay;
     let edge_nodes = if dim >= 1 {
-        a.edges(refinement, &mut face_memo)?
+        a.edges(refinement, &mut replay)?
     } else {
         Vec::new()
     };
     a.report.timings.edges_s = t_edges.elapsed().as_secs_f64();
     // 3. faces
     if dim >= 2 {
-        a.faces(&edge_nodes, face_memo)?;
+        a.faces(&edge_nodes, replay)?;
     }
     // closed shells: every volume's face triangles outward (a face shared
     // by two volumes keeps the first volume's orientation)
@@ -410,9 +410,9 @@ fn mesh_once(
     Ok((mesh, report))
 }
 
-/// What the faces of an attempt may replay from the last one
+/// What the edges and faces of an attempt may replay from the last one
 /// (see [`memo`]).
-struct FaceMemory<'m> {
+struct Replay<'m> {
     memos: &'m mut memo::FaceMemos,
     edge_memos: &'m mut memo::EdgeMemos,
     refinement: &'m refine::Refinement,
@@ -467,7 +467,7 @@ impl Attempt<'_> {
     fn edges(
         &mut self,
         refinement: &refine::Refinement,
-        memory: &mut FaceMemory<'_>,
+        memory: &mut Replay<'_>,
     ) -> Result<Vec<Vec<u32>>, MeshError> {
         let (model, spacing, opts) = (self.model, self.spacing, self.opts);
         let mesh = &mut self.mesh;
@@ -573,11 +573,7 @@ impl Attempt<'_> {
     /// Meshes every face. A face that fails does not stop the others, so
     /// that one refinement round covers every face that needs it; the
     /// error names them all.
-    fn faces(
-        &mut self,
-        edge_nodes: &[Vec<u32>],
-        memory: FaceMemory<'_>,
-    ) -> Result<(), Box<Failed>> {
+    fn faces(&mut self, edge_nodes: &[Vec<u32>], memory: Replay<'_>) -> Result<(), Box<Failed>> {
         let (model, spacing, opts) = (self.model, self.spacing, self.opts);
         let mut failed: Vec<(u32, MeshError)> = Vec::new();
         for fi in 0..model.faces.len() {
