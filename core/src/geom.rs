@@ -100,6 +100,13 @@ pub trait Surface: Send + Sync + std::fmt::Debug {
     fn point(&self, u: f64, v: f64) -> P3;
     /// S and its first and second partials at (u,v).
     fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs;
+    /// S, ∂S/∂u and ∂S/∂v at (u,v): the values [`Surface::derivs`] gives,
+    /// bit for bit. Stage 2 asks this a few times per bubble and step; an
+    /// adapter whose second partials cost (NURBS) answers it without them.
+    fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
+        let d = self.derivs(u, v);
+        (d.p, d.su, d.sv)
+    }
     /// (u,v) of the point of the surface nearest to `p`, searched from `hint`
     /// when given. `None` when the adapter cannot invert its map.
     fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]>;
@@ -115,6 +122,13 @@ pub trait Surface: Send + Sync + std::fmt::Debug {
     /// ([`Surface::inverse`]) instead of the first fundamental form.
     fn is_singular(&self, _u: f64, _v: f64) -> bool {
         false
+    }
+    /// [`Surface::is_singular`] for a caller that has just asked
+    /// [`Surface::tangents`] at (u,v) and passes `su`, `sv`: the same
+    /// answer, without evaluating them again where the adapter decides by
+    /// them (NURBS).
+    fn is_singular_with(&self, u: f64, v: f64, _su: &V3, _sv: &V3) -> bool {
+        self.is_singular(u, v)
     }
     /// The model-space points where the parametrization is singular (a
     /// sphere's poles, a cone's apex). Bubbles near them are connected in

@@ -21,7 +21,7 @@
 
 use std::sync::Arc;
 
-use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3};
+use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3, V3};
 
 /// The surface `inner` restricted to `domain`, periodic only in the
 /// directions where `periods` says so (a subset of the inner surface's
@@ -107,6 +107,15 @@ impl Surface for FaceView {
         }
         d
     }
+    fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
+        let (a, b) = self.map(u, v);
+        let (p, su, sv) = self.inner.tangents(a, b);
+        if self.turned {
+            (p, -su, -sv)
+        } else {
+            (p, su, sv)
+        }
+    }
     fn inverse(&self, p: &P3, hint: Option<[f64; 2]>) -> Option<[f64; 2]> {
         let hint = hint.map(|h| {
             let (a, b) = self.map(h[0], h[1]);
@@ -122,6 +131,12 @@ impl Surface for FaceView {
     fn is_singular(&self, u: f64, v: f64) -> bool {
         let (u, v) = self.map(u, v);
         self.inner.is_singular(u, v)
+    }
+    /// The half turn only flips the partials' signs, not their cross
+    /// product's length.
+    fn is_singular_with(&self, u: f64, v: f64, su: &V3, sv: &V3) -> bool {
+        let (u, v) = self.map(u, v);
+        self.inner.is_singular_with(u, v, su, sv)
     }
     fn singular_points(&self) -> Vec<P3> {
         self.inner.singular_points()

@@ -20,7 +20,23 @@ pub struct OnFace<'a> {
     /// Why: for the six faces of case K, evaluating them per bubble and
     /// step through the trait object cost more than the forces.
     plane: Option<PlaneFrame>,
+    /// Tells this carrier's entry in [`LAST_TANGENTS`] from another's.
+    id: u64,
 }
+
+/// The last [`Surface::tangents`] a carrier asked on this thread: (carrier
+/// id, (u,v) bits, the answer). A stage-2 step moves a bubble to new (u,v)
+/// (its point) and then projects its velocity on the tangent plane there
+/// (the partials at the same (u,v)): one evaluation instead of two, which
+/// on a NURBS face is most of the step.
+type Tangents = (u64, [u64; 2], P3, V3, V3);
+
+thread_local! {
+    static LAST_TANGENTS: std::cell::Cell<Option<Tangents>> = const { std::cell::Cell::new(None) };
+}
+
+/// Ids for [`OnFace::id`].
+static NEXT_CARRIER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 #[derive(Clone, Copy)]
 struct PlaneFrame {
@@ -36,6 +52,7 @@ impl<'a> OnFace<'a> {
             region,
             entity,
             plane: None,
+            id: NEXT_CARRIER.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
         if surface.is_planar() {
             let (lo, hi) = f.region.bbox();
@@ -54,11 +71,25 @@ impl<'a> OnFace<'a> {
 }
 
 impl OnFace<'_> {
+    /// [`Surface::tangents`] at `uv`, from [`LAST_TANGENTS`] when it was
+    /// the last one asked here (the same numbers).
+    fn tangents(&self, uv: [f64; 2]) -> (P3, V3, V3) {
+        let key = [uv[0].to_bits(), uv[1].to_bits()];
+        if let Some((id, k, p, su, sv)) = LAST_TANGENTS.get() {
+            if id == self.id && k == key {
+                return (p, su, sv);
+            }
+        }
+        let (p, su, sv) = self.surface.tangents(uv[0], uv[1]);
+        LAST_TANGENTS.set(Some((self.id, key, p, su, sv)));
+        (p, su, sv)
+    }
+
     /// Whether the parametrization degenerates at `uv` (the adapter says so,
     /// or S_u × S_v is tiny against |S_u|·|S_v| or against the larger of them
     /// squared): there bubbles move by projection.
     fn degenerate(&self, uv: [f64; 2], su: &V3, sv: &V3) -> bool {
-        if self.surface.is_singular(uv[0], uv[1]) {
+        if self.surface.is_singular_with(uv[0], uv[1], su, sv) {
             return true;
         }
         let cross = su.cross(sv).norm();
@@ -71,10 +102,10 @@ impl OnFace<'_> {
     /// Derivatives for the tangent plane at `params`; at a singular point
     /// those of a point a hair toward the middle of the domain (the tangent
     /// plane is the limit there).
-    fn tangent_derivs(&self, params: [f64; 2]) -> crate::geom::SurfaceDerivs {
-        let dv = self.surface.derivs(params[0], params[1]);
-        if !self.degenerate(params, &dv.su, &dv.sv) {
-            return dv;
+    fn tangent_derivs(&self, params: [f64; 2]) -> (V3, V3) {
+        let (_, su, sv) = self.tangents(params);
+        if !self.degenerate(params, &su, &sv) {
+            return (su, sv);
         }
         let (lo, hi) = self.region.bbox();
         let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
@@ -82,7 +113,8 @@ impl OnFace<'_> {
             params[0] + 1e-6 * (mid[0] - params[0]),
             params[1] + 1e-6 * (mid[1] - params[1]),
         ];
-        self.surface.derivs(q[0], q[1])
+        let (_, su, sv) = self.surface.tangents(q[0], q[1]);
+        (su, sv)
     }
 }
 
@@ -95,14 +127,14 @@ impl Carrier for OnFace<'_> {
             let step = parameter_step(&pl.su, &pl.sv, dx)?;
             [params[0] + step[0], params[1] + step[1]]
         } else {
-            let dv = self.surface.derivs(params[0], params[1]);
-            if self.degenerate(params, &dv.su, &dv.sv) {
+            let (p, su, sv) = self.tangents(params);
+            if self.degenerate(params, &su, &sv) {
                 // near a pole or an apex the first fundamental form is
                 // singular: project the moved point back onto the surface
                 // instead
-                self.surface.inverse(&(dv.p + dx), Some(params))?
+                self.surface.inverse(&(p + dx), Some(params))?
             } else {
-                let step = parameter_step(&dv.su, &dv.sv, dx)?;
+                let step = parameter_step(&su, &sv, dx)?;
                 [params[0] + step[0], params[1] + step[1]]
             }
         };
@@ -110,17 +142,23 @@ impl Carrier for OnFace<'_> {
         if !uv[0].is_finite() || !uv[1].is_finite() || !self.contains(uv) {
             return None;
         }
-        Some((self.surface.point(uv[0], uv[1]), uv))
+        // the point with its partials: the step's projection on the
+        // tangent plane asks them next (see LAST_TANGENTS)
+        let p = match self.plane {
+            Some(_) => self.surface.point(uv[0], uv[1]),
+            None => self.tangents(uv).0,
+        };
+        Some((p, uv))
     }
     fn frame(&self, params: [f64; 2]) -> (V3, V3) {
         if let Some(pl) = &self.plane {
             return pl.frame;
         }
-        let dv = self.tangent_derivs(params);
-        let (a, b) = if dv.su.norm_squared() >= dv.sv.norm_squared() {
-            (dv.su, dv.sv)
+        let (su, sv) = self.tangent_derivs(params);
+        let (a, b) = if su.norm_squared() >= sv.norm_squared() {
+            (su, sv)
         } else {
-            (dv.sv, dv.su)
+            (sv, su)
         };
         let t1 = a.normalize();
         let mut t2 = b - t1 * t1.dot(&b);
@@ -142,19 +180,19 @@ impl Carrier for OnFace<'_> {
         let (su, sv) = match &self.plane {
             Some(pl) => (pl.su, pl.sv),
             None => {
-                let dv = self.surface.derivs(params[0], params[1]);
-                if self.degenerate(params, &dv.su, &dv.sv) {
+                let (_, su, sv) = self.tangents(params);
+                if self.degenerate(params, &su, &sv) {
                     return None;
                 }
-                (dv.su, dv.sv)
+                (su, sv)
             }
         };
         let l = (su * duv[0] + sv * duv[1]).norm();
         l.is_finite().then_some(l)
     }
     fn normal(&self, params: [f64; 2]) -> V3 {
-        let dv = self.tangent_derivs(params);
-        dv.su.cross(&dv.sv).normalize()
+        let (su, sv) = self.tangent_derivs(params);
+        su.cross(&sv).normalize()
     }
     fn planar(&self) -> bool {
         self.surface.is_planar()

@@ -266,11 +266,40 @@ pub(crate) fn find_span(knots: &[f64], p: usize, n: usize, t: f64) -> usize {
 
 /// Non-zero basis functions N_{span−p+j,p} and their first two derivatives
 /// at `t` (A2.3 with n = 2): `ders[k][j]`. Precondition: non-empty span.
-#[allow(clippy::needless_range_loop)] // index form of the book's algorithm
 pub(crate) fn basis_derivs(knots: &[f64], span: usize, t: f64, p: usize) -> [[f64; MAXP]; 3] {
-    let mut ndu = [[0.0f64; MAXP]; MAXP];
-    let mut left = [0.0f64; MAXP];
-    let mut right = [0.0f64; MAXP];
+    basis_derivs_upto(knots, span, t, p, 2)
+}
+
+/// [`basis_derivs`] up to derivative order `n` ≤ 2 (the higher rows stay
+/// zero); the rows it computes are the same numbers.
+pub(crate) fn basis_derivs_upto(
+    knots: &[f64],
+    span: usize,
+    t: f64,
+    p: usize,
+    n: usize,
+) -> [[f64; MAXP]; 3] {
+    // the triangle table sized to the degree: zeroing a 16 × 16 table for
+    // a cubic was a tenth of a NURBS face's stage 2
+    if p < 8 {
+        basis_table::<8>(knots, span, t, p, n)
+    } else {
+        basis_table::<MAXP>(knots, span, t, p, n)
+    }
+}
+
+/// [`basis_derivs_upto`] with tables of `M` > p entries per side.
+#[allow(clippy::needless_range_loop)] // index form of the book's algorithm
+fn basis_table<const M: usize>(
+    knots: &[f64],
+    span: usize,
+    t: f64,
+    p: usize,
+    n: usize,
+) -> [[f64; MAXP]; 3] {
+    let mut ndu = [[0.0f64; M]; M];
+    let mut left = [0.0f64; M];
+    let mut right = [0.0f64; M];
     ndu[0][0] = 1.0;
     for j in 1..=p {
         left[j] = t - knots[span + 1 - j];
@@ -288,7 +317,7 @@ pub(crate) fn basis_derivs(knots: &[f64], span: usize, t: f64, p: usize) -> [[f6
     for j in 0..=p {
         ders[0][j] = ndu[j][p];
     }
-    let nd = p.min(2);
+    let nd = p.min(n.min(2));
     let mut a = [[0.0f64; MAXP]; 2];
     for r in 0..=p {
         let (mut s1, mut s2) = (0, 1);

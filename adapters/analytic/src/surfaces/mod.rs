@@ -357,7 +357,12 @@ pub(crate) fn typical_partials(s: &dyn Surface) -> [f64; 2] {
 
 /// The generic singularity test |S_u × S_v| ≤ `SINGULAR_REL` · s_u · s_v.
 pub(crate) fn area_singular(d: &SurfaceDerivs, scale: [f64; 2]) -> bool {
-    d.su.cross(&d.sv).norm() <= SINGULAR_REL * scale[0] * scale[1]
+    area_singular_of(&d.su, &d.sv, scale)
+}
+
+/// [`area_singular`] given the first partials.
+pub(crate) fn area_singular_of(su: &V3, sv: &V3, scale: [f64; 2]) -> bool {
+    su.cross(sv).norm() <= SINGULAR_REL * scale[0] * scale[1]
 }
 
 /// Closest point by Newton from the hint, else from the best of `seeds`

@@ -9,8 +9,10 @@
 
 use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3, V3};
 
-use super::{area_singular, newton_inverse, typical_partials, wrap, ParamBox, SurfaceError};
-use crate::curves::{basis_derivs, clamped_uniform_knots, find_span, GeometryError, Nurbs};
+use super::{
+    area_singular, area_singular_of, newton_inverse, typical_partials, wrap, ParamBox, SurfaceError,
+};
+use crate::curves::{basis_derivs_upto, clamped_uniform_knots, find_span, GeometryError, Nurbs};
 
 /// A NURBS surface of degrees (p, q) with an nu × nv control net P_ij,
 /// weights w_ij > 0 and knot vectors U = (u_0 … u_{nu+p}),
@@ -286,14 +288,22 @@ impl NurbsSurface {
     }
 
     /// S and its partials up to order 2 (no wrapping).
-    #[allow(clippy::needless_range_loop)] // index form of the book's algorithm
     fn eval(&self, u: f64, v: f64) -> SurfaceDerivs {
+        self.eval_upto(u, v, 2)
+    }
+
+    /// S and its partials up to order `order` ≤ 2 (no wrapping); the
+    /// partials of higher order are left zero, the others are the numbers
+    /// of the full evaluation (the same sums in the same order).
+    #[allow(clippy::needless_range_loop)] // index form of the book's algorithm
+    fn eval_upto(&self, u: f64, v: f64, order: usize) -> SurfaceDerivs {
         let [p, q] = self.degree;
         let [nu, nv] = self.n;
         let ku = find_span(&self.knots_u, p, nu, u);
         let kv = find_span(&self.knots_v, q, nv, v);
-        let bu = basis_derivs(&self.knots_u, ku, u, p);
-        let bv = basis_derivs(&self.knots_v, kv, v, q);
+        let bu = basis_derivs_upto(&self.knots_u, ku, u, p, order);
+        let bv = basis_derivs_upto(&self.knots_v, kv, v, q, order);
+        let rows = order.min(2) + 1;
         // Homogeneous sums A^{(k,l)}: order 00, 10, 01, 20, 11, 02.
         let mut a = [[0.0f64; 4]; 6];
         for i in 0..=p {
@@ -301,7 +311,7 @@ impl NurbsSurface {
             let mut t = [[0.0f64; 4]; 3];
             for j in 0..=q {
                 let h = &self.hw[row + j];
-                for l in 0..3 {
+                for l in 0..rows {
                     let c = bv[l][j];
                     for m in 0..4 {
                         t[l][m] += c * h[m];
@@ -311,11 +321,19 @@ impl NurbsSurface {
             let (n0, n1, n2) = (bu[0][i], bu[1][i], bu[2][i]);
             for m in 0..4 {
                 a[0][m] += n0 * t[0][m];
-                a[1][m] += n1 * t[0][m];
-                a[2][m] += n0 * t[1][m];
-                a[3][m] += n2 * t[0][m];
-                a[4][m] += n1 * t[1][m];
-                a[5][m] += n0 * t[2][m];
+            }
+            if rows > 1 {
+                for m in 0..4 {
+                    a[1][m] += n1 * t[0][m];
+                    a[2][m] += n0 * t[1][m];
+                }
+            }
+            if rows > 2 {
+                for m in 0..4 {
+                    a[3][m] += n2 * t[0][m];
+                    a[4][m] += n1 * t[1][m];
+                    a[5][m] += n0 * t[2][m];
+                }
             }
         }
         let vec = |h: &[f64; 4]| V3::new(h[0], h[1], h[2]);
@@ -376,11 +394,17 @@ impl Surface for NurbsSurface {
         )
     }
     fn point(&self, u: f64, v: f64) -> P3 {
-        self.derivs(u, v).p
+        let (u, v) = self.wrap_params(u, v);
+        self.eval_upto(u, v, 0).p
     }
     fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
         let (u, v) = self.wrap_params(u, v);
         self.eval(u, v)
+    }
+    fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
+        let (u, v) = self.wrap_params(u, v);
+        let d = self.eval_upto(u, v, 1);
+        (d.p, d.su, d.sv)
     }
     /// Newton on the closest-point problem (module documentation). Without
     /// a hint the start is the best point of an n_u × n_v grid, n = 3 ×
@@ -399,7 +423,11 @@ impl Surface for NurbsSurface {
         self.period
     }
     fn is_singular(&self, u: f64, v: f64) -> bool {
-        area_singular(&self.derivs(u, v), self.scale)
+        let (u, v) = self.wrap_params(u, v);
+        area_singular(&self.eval_upto(u, v, 1), self.scale)
+    }
+    fn is_singular_with(&self, _u: f64, _v: f64, su: &V3, sv: &V3) -> bool {
+        area_singular_of(su, sv, self.scale)
     }
     /// The poles: points to which a boundary isocurve collapses (type
     /// documentation). Empty for a surface without collapsed edges.
@@ -411,6 +439,7 @@ impl Surface for NurbsSurface {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::curves::basis_derivs;
 
     #[test]
     fn basis_matches_the_book_example() {
