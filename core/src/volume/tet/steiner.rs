@@ -62,11 +62,18 @@ pub(crate) fn steiner_points(
             }
         }
     }
-    let Some(h) = cand.iter().map(|c| 0.25 * c.1).min_by(f64::total_cmp) else {
+    let Some(h) = cand.iter().map(|c| 0.25 * c.1).max_by(f64::total_cmp) else {
         return Vec::new();
     };
-    // a hash grid of cell h (the smallest exclusion radius): a point is
-    // dropped when a chosen one lies within a quarter of its own spacing
+    // a hash grid of cell h (the largest exclusion radius, so that a point
+    // looks at the 27 cells around its own): a point is dropped when a
+    // chosen one lies within a quarter of its own spacing. (Cells of the
+    // smallest radius made a point of spacing d look at (2k+1)³ cells, k
+    // its spacing over the smallest: where refined places had spacings a
+    // hundredth of d, that was most of as_0083's tetrahedra.)
+    if !(h > 0.0 && h.is_finite()) {
+        return Vec::new();
+    }
     let key = |p: &P3| [0, 1, 2].map(|i| (p[i] / h).floor() as i64);
     let mut cells: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
     let mut out: Vec<(P3, f64)> = Vec::new();
