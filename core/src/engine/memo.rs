@@ -312,26 +312,9 @@ mod tests {
     use std::sync::Arc;
 
     use super::*;
-    use crate::geom::{Curve, Plane, V3};
+    use crate::bubbles::testing::Segment;
+    use crate::geom::Plane;
     use crate::model::{Edge, EdgeUse, Face, Loop, Vertex};
-
-    #[derive(Debug)]
-    struct Segment(P3, P3);
-
-    impl Curve for Segment {
-        fn interval(&self) -> (f64, f64) {
-            (0.0, 1.0)
-        }
-        fn point(&self, t: f64) -> P3 {
-            self.0 + (self.1 - self.0) * t
-        }
-        fn d1(&self, _t: f64) -> V3 {
-            self.1 - self.0
-        }
-        fn d2(&self, _t: f64) -> V3 {
-            V3::zeros()
-        }
-    }
 
     /// The unit square as one face of four edges, and a mesh of it: the
     /// four corners (the edges' only nodes) and a centre node, four
