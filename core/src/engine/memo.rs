@@ -40,15 +40,47 @@ enum Corner {
     Own(u32),
 }
 
+/// Where a remembered edge or face lies and the refined places that
+/// reached it: the box of its nodes grown by its longest mesh edge (the
+/// geometry between two nodes bulges less than their distance).
+struct Reach {
+    lo: P3,
+    hi: P3,
+    /// [`Refinement::places_key`] of the box when it was meshed.
+    places: Vec<u64>,
+}
+
+impl Reach {
+    /// The box of `pts` grown by `by`, and the places reaching it.
+    fn new(refinement: &Refinement, pts: impl Iterator<Item = P3>, by: f64) -> Reach {
+        let (mut lo, mut hi) = (
+            P3::from([f64::INFINITY; 3]),
+            P3::from([f64::NEG_INFINITY; 3]),
+        );
+        for p in pts {
+            lo = lo.inf(&p);
+            hi = hi.sup(&p);
+        }
+        let grow = nalgebra::Vector3::repeat(by);
+        let (lo, hi) = (lo - grow, hi + grow);
+        Reach {
+            places: refinement.places_key(&lo, &hi),
+            lo,
+            hi,
+        }
+    }
+
+    /// Whether the places reaching the box are as they were.
+    fn holds(&self, refinement: &Refinement) -> bool {
+        self.places == refinement.places_key(&self.lo, &self.hi)
+    }
+}
+
 /// One face's mesh from an earlier attempt and what it depended on.
 pub(crate) struct FaceMemo {
     /// The boundary's and the spacing's fingerprint (see the module docs).
     key: Vec<u64>,
-    /// The box of the face's nodes, grown by its longest mesh edge.
-    lo: P3,
-    hi: P3,
-    /// The places that reached that box.
-    places: Vec<u64>,
+    reach: Reach,
     /// The face's own nodes, in the order it added them.
     nodes: Vec<Node>,
     triangles: Vec<[Corner; 3]>,
@@ -73,9 +105,7 @@ pub(crate) struct Attempted<'a> {
 /// spacing at its two vertices) and the places reaching its box.
 pub(crate) struct EdgeMemo {
     key: Vec<u64>,
-    lo: P3,
-    hi: P3,
-    places: Vec<u64>,
+    reach: Reach,
     /// Its interior nodes, start to end, and their spacing.
     nodes: Vec<Node>,
     d: Vec<f64>,
@@ -97,7 +127,7 @@ pub(crate) fn replay_edge(
     node_d: &mut Vec<f64>,
 ) -> Option<Vec<u32>> {
     let memo = memos.get(ei)?.as_ref()?;
-    if memo.key != key || memo.places != refinement.places_key(&memo.lo, &memo.hi) {
+    if memo.key != key || !memo.reach.holds(refinement) {
         return None;
     }
     let first = mesh.nodes.len() as u32;
@@ -139,44 +169,32 @@ pub(crate) fn record_edge(
     {
         return;
     }
-    let pts: Vec<P3> = ids.iter().map(|&v| mesh.nodes[v as usize].pos).collect();
-    let (mut lo, mut hi) = (pts[0], pts[0]);
-    let mut longest: f64 = 0.0;
-    for w in pts.windows(2) {
-        longest = longest.max((w[1] - w[0]).norm());
-    }
-    for p in &pts {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
-    // the curve between two nodes bulges less than their distance
-    let grow = nalgebra::Vector3::repeat(longest);
-    let (lo, hi) = (lo - grow, hi + grow);
+    let pts = || ids.iter().map(|&v| mesh.nodes[v as usize].pos);
+    let longest = pts()
+        .zip(pts().skip(1))
+        .map(|(a, b)| (b - a).norm())
+        .fold(0.0, f64::max);
     memos[ei] = Some(EdgeMemo {
         key,
-        places: refinement.places_key(&lo, &hi),
-        lo,
-        hi,
+        reach: Reach::new(refinement, pts(), longest),
         nodes: mesh.nodes[interior.clone()].to_vec(),
         d: node_d[interior].to_vec(),
     });
 }
 
-/// Per edge, the box its remembered nodes lie in (grown by its longest
-/// segment).
+/// Per edge, the box its remembered nodes lie in.
 pub(crate) fn edge_boxes(memos: &EdgeMemos) -> Vec<Option<(P3, P3)>> {
     memos
         .iter()
-        .map(|m| m.as_ref().map(|m| (m.lo, m.hi)))
+        .map(|m| m.as_ref().map(|m| (m.reach.lo, m.reach.hi)))
         .collect()
 }
 
-/// Per face, the box its remembered mesh lies in (grown by its longest
-/// mesh edge, so that the surface between its nodes is inside too).
+/// Per face, the box its remembered mesh lies in.
 pub(crate) fn boxes(memos: &FaceMemos) -> Vec<Option<(P3, P3)>> {
     memos
         .iter()
-        .map(|m| m.as_ref().map(|m| (m.lo, m.hi)))
+        .map(|m| m.as_ref().map(|m| (m.reach.lo, m.reach.hi)))
         .collect()
 }
 
@@ -224,9 +242,7 @@ pub(crate) fn replay(
 ) -> Option<FaceReport> {
     let memo = memos.get(fi)?.as_ref()?;
     let ids = boundary_ids(at.model, fi, at.edge_nodes);
-    if memo.key != key(&ids, mesh, at.node_d, spacing_key)
-        || memo.places != at.refinement.places_key(&memo.lo, &memo.hi)
-    {
+    if memo.key != key(&ids, mesh, at.node_d, spacing_key) || !memo.reach.holds(at.refinement) {
         return None;
     }
     let first = mesh.nodes.len() as u32;
@@ -267,10 +283,6 @@ pub(crate) fn record(
         .map(|(k, &id)| (id, k as u32))
         .collect();
     let mut triangles = Vec::with_capacity(mesh.triangles.len() - t0);
-    let (mut lo, mut hi) = (
-        P3::from([f64::INFINITY; 3]),
-        P3::from([f64::NEG_INFINITY; 3]),
-    );
     let mut longest: f64 = 0.0;
     for t in &mesh.triangles[t0..] {
         let mut c = [Corner::Own(0); 3];
@@ -286,21 +298,19 @@ pub(crate) fn record(
             let p = mesh.nodes[v as usize].pos;
             let q = mesh.nodes[t.nodes[(k + 1) % 3] as usize].pos;
             longest = longest.max((p - q).norm());
-            lo = lo.inf(&p);
-            hi = hi.sup(&p);
         }
         triangles.push(c);
     }
     if triangles.is_empty() || !longest.is_finite() {
         return;
     }
-    let grow = nalgebra::Vector3::repeat(longest);
-    let (lo, hi) = (lo - grow, hi + grow);
+    let corners = mesh.triangles[t0..]
+        .iter()
+        .flat_map(|t| t.nodes)
+        .map(|v| mesh.nodes[v as usize].pos);
     memos[fi] = Some(FaceMemo {
         key: key(&ids, mesh, at.node_d, spacing_key),
-        places: at.refinement.places_key(&lo, &hi),
-        lo,
-        hi,
+        reach: Reach::new(at.refinement, corners, longest),
         nodes: mesh.nodes[n0..].to_vec(),
         triangles,
         report: report.clone(),

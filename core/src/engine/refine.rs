@@ -252,9 +252,7 @@ impl Refinement {
     pub(crate) fn places_key(&self, lo: &P3, hi: &P3) -> Vec<u64> {
         let mut key = Vec::new();
         for (k, p) in self.places.iter().enumerate() {
-            let r = p.reach() + self.cell;
-            let near = (0..3).all(|i| p.centre[i] + r >= lo[i] && p.centre[i] - r <= hi[i]);
-            if near {
+            if self.place_reaches(p, lo, hi) {
                 key.push(k as u64);
                 key.push(p.level as u64);
                 key.extend(
@@ -269,6 +267,19 @@ impl Refinement {
             key.push(self.cell.to_bits());
         }
         key
+    }
+
+    /// Whether place `p`'s reach, widened by a grid cell (see
+    /// [`Refinement::places_key`]), meets the box [`lo`, `hi`].
+    fn place_reaches(&self, p: &Place, lo: &P3, hi: &P3) -> bool {
+        let r = p.reach() + self.cell;
+        (0..3).all(|i| p.centre[i] + r >= lo[i] && p.centre[i] - r <= hi[i])
+    }
+
+    /// Whether some place may change the spacing inside [`lo`, `hi`]
+    /// ([`Refinement::places_key`] not empty).
+    pub(crate) fn any_place_reaches(&self, lo: &P3, hi: &P3) -> bool {
+        self.places.iter().any(|p| self.place_reaches(p, lo, hi))
     }
 
     /// The refined places, for the report.
@@ -403,7 +414,7 @@ impl Refined<'_> {
                 .get(e.id as usize)
                 .copied()
                 .flatten()
-                .is_some_and(|(lo, hi)| self.refinement.places_key(&lo, &hi).is_empty())
+                .is_some_and(|(lo, hi)| !self.refinement.any_place_reaches(&lo, &hi))
     }
 }
 

@@ -20,9 +20,7 @@ pub use arc::CircleArc;
 pub use ellipse::EllipseArc;
 pub use hyperbola::HyperbolaArc;
 pub use line::Line;
-#[cfg(test)]
-pub(crate) use nurbs::basis_derivs;
-pub(crate) use nurbs::{basis_derivs_upto, clamped_uniform_knots, find_span};
+pub(crate) use nurbs::{basis_derivs, clamped_uniform_knots, find_span};
 pub use nurbs::{Nurbs, MAX_NURBS_DEGREE};
 pub use on_surface::CurveOnSurface;
 

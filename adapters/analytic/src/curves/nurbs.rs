@@ -149,7 +149,7 @@ impl Nurbs {
     fn eval(&self, t: f64) -> [V3; 3] {
         let p = self.degree;
         let span = self.find_span(t);
-        let ders = basis_derivs(&self.knots, span, t, p);
+        let ders = basis_derivs(&self.knots, span, t, p, 2);
         let mut a = [V3::zeros(); 3];
         let mut w = [0.0; 3];
         for j in 0..=p {
@@ -264,15 +264,11 @@ pub(crate) fn find_span(knots: &[f64], p: usize, n: usize, t: f64) -> usize {
     k
 }
 
-/// Non-zero basis functions N_{span−p+j,p} and their first two derivatives
-/// at `t` (A2.3 with n = 2): `ders[k][j]`. Precondition: non-empty span.
-pub(crate) fn basis_derivs(knots: &[f64], span: usize, t: f64, p: usize) -> [[f64; MAXP]; 3] {
-    basis_derivs_upto(knots, span, t, p, 2)
-}
-
-/// [`basis_derivs`] up to derivative order `n` ≤ 2 (the higher rows stay
-/// zero); the rows it computes are the same numbers.
-pub(crate) fn basis_derivs_upto(
+/// Non-zero basis functions N_{span−p+j,p} and their derivatives up to
+/// order `n` ≤ 2 at `t` (A2.3): `ders[k][j]`, the rows above `n` zero (the
+/// rows computed are the same numbers whatever `n`). Precondition:
+/// non-empty span.
+pub(crate) fn basis_derivs(
     knots: &[f64],
     span: usize,
     t: f64,
@@ -288,7 +284,7 @@ pub(crate) fn basis_derivs_upto(
     }
 }
 
-/// [`basis_derivs_upto`] with tables of `M` > p entries per side.
+/// [`basis_derivs`] with tables of `M` > p entries per side.
 #[allow(clippy::needless_range_loop)] // index form of the book's algorithm
 fn basis_table<const M: usize>(
     knots: &[f64],
@@ -364,7 +360,7 @@ mod tests {
     fn basis_functions_sum_to_one_and_derivatives_to_zero() {
         let u = [0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 4.0, 4.0, 5.0, 5.0, 5.0];
         // The NURBS Book Ex. 2.4: t = 5/2, p = 2, span 4.
-        let d = basis_derivs(&u, 4, 2.5, 2);
+        let d = basis_derivs(&u, 4, 2.5, 2, 2);
         assert!((d[0].iter().sum::<f64>() - 1.0).abs() < 1e-14);
         assert!(d[1].iter().sum::<f64>().abs() < 1e-14);
         assert!(d[2].iter().sum::<f64>().abs() < 1e-14);

@@ -78,13 +78,13 @@ pub(crate) fn steiner_points(
     let mut cells: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
     let mut out: Vec<(P3, f64)> = Vec::new();
     for (c, dc) in cand {
+        // r ≤ h: the chosen points within r are in the 27 cells around
         let r = 0.25 * dc;
-        let reach = (r / h).ceil() as i64;
         let k = key(&c);
         let mut near = false;
-        'search: for dx in -reach..=reach {
-            for dy in -reach..=reach {
-                for dz in -reach..=reach {
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
                     if let Some(v) = cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
                         if v.iter().any(|&j| (out[j].0 - c).norm() < r) {
                             near = true;
