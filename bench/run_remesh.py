@@ -42,6 +42,13 @@ Cases:
       (times summed over the frames; quality: the worst frame's difference)
   e   the unit cube into tetrahedra (--dim 3), d = 0.08, one face moved
       (x max 1 -> 1.03); the volume warm-starts too (core/src/volume/warm.rs)
+      and keeps its old tetrahedra among kept nodes (core/src/volume/keep.rs)
+  e-r the same with --region box around the moved face (x >= 0.95); kept
+      also counts the old tetrahedra whose corners are all farther than 2
+      spacings from the region and how many the warm mesh has, corner for
+      corner, bit for bit
+  b-3 case b's part into tetrahedra, d = 1.5 mm, with --region sphere
+      around the changed hole
 
   python3 bench/run_remesh.py [--bin target/release/bubblemesh] [--cases a,b] [--reps 3]
 
@@ -102,8 +109,13 @@ CASES = {
     "c": (plate(), plate(), "0.01", (REFINED, REFINED_NP), None, 2),
     "c-r": (plate(), plate(), "0.01", (REFINED, REFINED_NP), "box:0.75,0.25,-1,1.25,0.75,1", 2),
     "e": (CUBE.format(x=1), CUBE.format(x=1.03), "0.08", ("0.08", "0.08"), None, 3),
+    "e-r": (CUBE.format(x=1), CUBE.format(x=1.03), "0.08", ("0.08", "0.08"),
+            "box:0.95,-1,-1,2,2,2", 3),
+    "b-3": (os.path.join(REPO, "fixtures", "remesh", "block_hole_8.0.step"),
+            os.path.join(REPO, "fixtures", "remesh", "block_hole_8.4.step"),
+            "1.5", ("1.5", "1.5"), "sphere:-15,0,0,8", 3),
 }
-ALL = ["a", "a-r", "b", "b2", "c", "c-r", "d", "e"]
+ALL = ["a", "a-r", "b", "b2", "c", "c-r", "d", "e", "e-r", "b-3"]
 
 
 def log(msg):
@@ -141,6 +153,18 @@ def msh_nodes(path):
     return meshio.read(path).points
 
 
+def msh_tets(path):
+    """The tetrahedra of a .msh file as sorted tuples of corner coordinates."""
+    import meshio
+    m = meshio.read(path)
+    pts = m.points.tolist()
+    out = []
+    for c in m.cells:
+        if c.type == "tetra":
+            out.extend(tuple(sorted(tuple(pts[i]) for i in t)) for t in c.data.tolist())
+    return out
+
+
 def region_kept(base_msh, state_report, warm_msh, region, size_np):
     """Old nodes farther than 2 spacings from a spatial region, and how many
     of them the warm mesh has at exactly the same coordinates."""
@@ -160,7 +184,12 @@ def region_kept(base_msh, state_report, warm_msh, region, size_np):
     far = dist > 2.0 * d
     newset = set(map(tuple, new.tolist()))
     kept = sum(1 for p in old[far].tolist() if tuple(p) in newset)
-    return int(far.sum()), kept
+    # tetrahedra whose corners are all far
+    far_pts = set(map(tuple, old[far].tolist()))
+    old_tets = [t for t in msh_tets(base_msh) if all(p in far_pts for p in t)]
+    new_tets = set(msh_tets(warm_msh))
+    tets = (len(old_tets), sum(1 for t in old_tets if t in new_tets)) if old_tets else None
+    return int(far.sum()), kept, tets
 
 
 def steps_of(report_path):
@@ -212,9 +241,11 @@ def one_change(b, out, name, old_text, new_text, old_size, new_size, region, dim
             rec[label]["summary"]["matched"] = len(s["matching"]["matched"])
             rec[label]["summary"]["unmatched"] = len(s["matching"]["unmatched"])
     if region and base_state is None:
-        far, kept = region_kept(base_msh, None, os.path.join(out, name + "_warm.msh"), region,
-                                CASES[name][2] if name in CASES else size_np)
+        far, kept, tets = region_kept(base_msh, None, os.path.join(out, name + "_warm.msh"), region,
+                                      CASES[name][2] if name in CASES else size_np)
         rec["far_from_region"], rec["far_kept_bit_for_bit"] = far, kept
+        if tets:
+            rec["far_tets"], rec["far_tets_kept"] = tets
     rec["new_state"] = new_state
     return rec
 
@@ -263,9 +294,12 @@ def table(results):
         eratio = w["engine_s"] / max(s["engine_s"], 1e-9)
         kept = ("%d / %d" % (r["far_kept_bit_for_bit"], r["far_from_region"])
                 if "far_from_region" in r else "–")
+        if "far_tets" in r:
+            kept += "; tets %d / %d" % (r["far_tets_kept"], r["far_tets"])
         ok_time = ratio <= 0.2
         ok_q = all(v >= -0.005 for v in dq.values())
-        ok_kept = "far_from_region" not in r or r["far_kept_bit_for_bit"] == r["far_from_region"]
+        ok_kept = ("far_from_region" not in r or r["far_kept_bit_for_bit"] == r["far_from_region"]) \
+            and r.get("far_tets_kept") == r.get("far_tets")
         verdict = ", ".join(x for x, ok in [("time", ok_time), ("quality", ok_q), ("kept", ok_kept),
                                              ("valid", valid)] if not ok)
         rows.append("| %s | %.3f | %.3f | %.2f | %.2f | %d / %d | %+.4f | %+.4f | %+.4f | %s | %s | %s |" % (

@@ -640,7 +640,7 @@ void bm_state_free(struct bm_state *state);
 enum bm_result bm_state_load(const char *path, struct bm_state **out);
 
 // Writes `state` to the file `path` (UTF-8) in the state format of the
-// command line's `--save-state` (`bubblemesh-state` version 1,
+// command line's `--save-state` (`bubblemesh-state` version 2,
 // docs/state-format.md; `bubblemesh remesh` reads it). The file is
 // written whole or not at all: a temporary file in its directory renamed
 // over it once complete (an existing file is left untouched on error).

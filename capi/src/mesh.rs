@@ -230,7 +230,9 @@ fn plan_error(e: PlanError, w: &Warm<'_>, prefix: &str) -> Error {
     #[allow(unreachable_patterns)]
     let code = match e {
         PlanError::AnotherModel { .. } => bm_result::BM_ERR_STATE,
-        PlanError::EmptyRegion(_) | PlanError::NoSuchFace { .. } => bm_result::BM_ERR_RANGE,
+        PlanError::EmptyRegion(_)
+        | PlanError::NoSuchFace { .. }
+        | PlanError::ChangedOutside { .. } => bm_result::BM_ERR_RANGE,
         _ => bm_result::BM_ERR_STATE,
     };
     Error::new(

@@ -71,7 +71,7 @@ pub unsafe extern "C" fn bm_mesh_state(mesh: *const bm_mesh, out: *mut *mut bm_s
 }
 
 /// Writes `state` to the file `path` (UTF-8) in the state format of the
-/// command line's `--save-state` (`bubblemesh-state` version 1,
+/// command line's `--save-state` (`bubblemesh-state` version 2,
 /// docs/state-format.md; `bubblemesh remesh` reads it). The file is
 /// written whole or not at all: a temporary file in its directory renamed
 /// over it once complete (an existing file is left untouched on error).

@@ -100,8 +100,12 @@ impl Warm {
             (Some(f), Some(k)) => format!("; {k} of the {f} old nodes farther than 2 spacings from the region kept bit for bit"),
             _ => String::new(),
         };
+        let tets = match (s.tets_old, s.tets_kept) {
+            (Some(o), Some(k)) => format!("; tetrahedra kept {k} of {o}"),
+            _ => String::new(),
+        };
         format!(
-            "re-meshed from {} matched entities ({} meshed anew): nodes kept {}, moved {}, added {}; old bubbles removed {}{far}",
+            "re-meshed from {} matched entities ({} meshed anew): nodes kept {}, moved {}, added {}; old bubbles removed {}{far}{tets}",
             s.matching.matched.len(),
             s.matching.unmatched.len(),
             s.kept,

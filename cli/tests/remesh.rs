@@ -48,6 +48,24 @@ fn msh_nodes(path: &Path) -> Vec<[u64; 3]> {
         .collect()
 }
 
+/// The tetrahedra of a .msh file, each as its corners' exact coordinates
+/// (sorted, so that a tetrahedron is found whatever its node numbering).
+fn msh_tets(path: &Path) -> Vec<[[u64; 3]; 4]> {
+    let mesh = bubblemesh_io::read(path).unwrap();
+    let bits = |k: u32| {
+        let p = mesh.nodes[k as usize].pos;
+        [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+    };
+    mesh.tetrahedra
+        .iter()
+        .map(|t| {
+            let mut c = t.nodes.map(bits);
+            c.sort_unstable();
+            c
+        })
+        .collect()
+}
+
 /// A re-meshing writes the mesh, the new state and a report that says what
 /// was matched, kept, moved, added and removed and how many steps stage 2
 /// took; with a region, every old node farther than two spacings from it
@@ -184,6 +202,14 @@ fn bad_states_are_refused_and_nothing_is_written() {
         &bytes,
         &["--region", "box:5,5,5,6,6,6"],
         "selects nothing",
+    );
+    // a region away from the moved hole: its old nodes, which would be
+    // kept, are no longer on the hole's edge (a wrong mesh if written)
+    try_state(
+        "outside.state",
+        &bytes,
+        &["--region", "box:1.6,0,-1,2,0.4,1"],
+        "leaves out a change of the geometry",
     );
 }
 
@@ -408,6 +434,14 @@ fn a_solid_remeshes_warm_and_keeps_its_interior() {
         "{lost} of {} old nodes far from the moved face moved, {released} of {kept} released",
         far.len()
     );
+    // and the old tetrahedra among the kept nodes stay (most of the cube)
+    let old_tets = msh_tets(Path::new(&p("old.msh")));
+    let kept_tets = vol(&warm)["kept_tets"].as_u64().expect("kept_tets") as usize;
+    assert!(
+        3 * kept_tets > old_tets.len(),
+        "{kept_tets} of {} tetrahedra kept",
+        old_tets.len()
+    );
 
     // local: a box around the moved face
     let local = meshed(
@@ -437,4 +471,29 @@ fn a_solid_remeshes_warm_and_keeps_its_interior() {
         outside.len()
     );
     assert!(q(&local, "q_mean") > q(&scratch, "q_mean") - 0.005);
+    assert!(q(&local, "q_min") > q(&scratch, "q_min") - 0.005);
+    // every old tetrahedron outside the band is in the new mesh, corner
+    // for corner, bit for bit (thesis §4.8.1: the mesh away from the
+    // region is kept)
+    let now: std::collections::HashSet<_> =
+        msh_tets(Path::new(&p("local.msh"))).into_iter().collect();
+    let outside: Vec<_> = old_tets
+        .iter()
+        .filter(|t| t.iter().all(|c| x(c) < 0.8 - 2.0 * d))
+        .collect();
+    let lost = outside.iter().filter(|t| !now.contains(**t)).count();
+    assert!(outside.len() > old_tets.len() / 3);
+    assert_eq!(
+        lost,
+        0,
+        "{lost} of {} old tetrahedra outside the band changed",
+        outside.len()
+    );
+    assert_eq!(
+        vol(&local)["kept_tets"].as_u64(),
+        Some({
+            let old: std::collections::HashSet<_> = old_tets.iter().collect();
+            now.iter().filter(|t| old.contains(t)).count() as u64
+        })
+    );
 }

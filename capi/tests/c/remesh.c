@@ -26,7 +26,7 @@
  *
  * Bad inputs give their codes, a message naming the cause, and no handle:
  * a missing state file (BM_ERR_IO), a truncated one written here, one of
- * version 2, a corrupted one, a mesh file (BM_ERR_FORMAT, naming the
+ * version 9, a corrupted one, a mesh file (BM_ERR_FORMAT, naming the
  * file); a state of another model (BM_ERR_STATE); a region selecting
  * nothing, a region that does not parse, a face that does not exist
  * (BM_ERR_RANGE); fast (BM_ERR_UNSUPPORTED); NULL and wrong handles; a
@@ -408,7 +408,7 @@ int main(int argc, char **argv) {
             memcmp(bytes_a, bytes_b, len_a) == 0,
         "a state loaded and saved again differs from the file (%zu vs %zu "
         "bytes)", len_a, len_b);
-  CHECK(bytes_a && memcmp(bytes_a, "bubblemesh-state 1\n", 19) == 0,
+  CHECK(bytes_a && memcmp(bytes_a, "bubblemesh-state 2\n", 19) == 0,
         "the state file does not start with its format line");
   /* the model was freed: the state does not need it */
   bm_model_free(old_model);
@@ -508,11 +508,11 @@ int main(int argc, char **argv) {
   free(path);
 
   /* another version of the format */
-  path = join(dir, "v2.state");
-  bytes_b[17] = '2'; /* "bubblemesh-state 2" */
+  path = join(dir, "v9.state");
+  bytes_b[17] = '9'; /* "bubblemesh-state 9" */
   write_file(path, bytes_b, len_b);
-  EXPECT(bm_state_load(path, &bad), bad, BM_ERR_FORMAT, "v2.state",
-         "version 2");
+  EXPECT(bm_state_load(path, &bad), bad, BM_ERR_FORMAT, "v9.state",
+         "version 9");
   free(path);
 
   /* one byte of the body changed: the checksum */

@@ -1,6 +1,8 @@
 //! A hash grid of points: which points lie within a distance of a point.
 
-use std::collections::HashMap;
+// Fx hashing (rustc-hash): cell keys of one run's points, and a query
+// looks up 27 cells
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::geom::P3;
 
@@ -19,7 +21,7 @@ impl Cells {
     pub(crate) fn new(pts: &[P3], h: f64) -> Cells {
         let mut c = Cells {
             h,
-            map: HashMap::new(),
+            map: HashMap::default(),
         };
         for (i, p) in pts.iter().enumerate() {
             let k = c.key(p);

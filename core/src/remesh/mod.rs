@@ -78,6 +78,7 @@ impl Seed {
                     [0.0, 0.0]
                 },
                 bubbles: Vec::new(),
+                tets: Vec::new(),
             })
             .collect();
         let recorded: std::collections::HashSet<_> = entities.iter().map(|e| e.entity).collect();
@@ -112,7 +113,8 @@ impl Seed {
     }
 
     /// The state of the run that made `mesh` (the mesh [`Seed::new`] was
-    /// given): the records with each node as a bubble of its entity.
+    /// given): the records with each node as a bubble of its entity, and
+    /// each tetrahedron in its volume's record.
     pub fn state(&self, mesh: &Mesh) -> State {
         let mut s = self.records.clone();
         let index: std::collections::HashMap<_, _> = s
@@ -128,6 +130,13 @@ impl Seed {
                     pos: n.pos,
                     d,
                 });
+            }
+        }
+        for t in &mesh.tetrahedra {
+            if let Some(&k) = index.get(&t.entity) {
+                s.entities[k]
+                    .tets
+                    .push(t.nodes.map(|v| mesh.nodes[v as usize].pos));
             }
         }
         s

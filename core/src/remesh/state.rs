@@ -2,10 +2,12 @@
 //! after a run, so that a later run can start from them.
 //!
 //! Format `bubblemesh-state`, version [`VERSION`] (docs/state-format.md):
-//! an ASCII header of two lines, then a little-endian binary body.
+//! an ASCII header of two lines, then a little-endian binary body. Version
+//! 2 adds each volume's tetrahedra (a local re-meshing keeps those away
+//! from its region); version 1 files, without them, are still read.
 //!
 //! ```text
-//! bubblemesh-state 1\n
+//! bubblemesh-state 2\n
 //! <body length in bytes> <CRC-32 of the body, 8 hex digits>\n
 //! <body>
 //! ```
@@ -21,8 +23,10 @@ use crate::model::EntityRef;
 
 /// The format's name, the first word of the file.
 pub const FORMAT: &str = "bubblemesh-state";
-/// The version this code writes and reads.
-pub const VERSION: u32 = 1;
+/// The version this code writes.
+pub const VERSION: u32 = 2;
+/// The versions this code reads (1: no tetrahedra).
+pub const READS: [u32; 2] = [1, 2];
 
 /// One bubble: its parameters on its entity (`[t, 0]` on an edge, `[u, v]`
 /// on a face, unused in a volume), its centre and its diameter (the spacing
@@ -66,6 +70,10 @@ pub struct EntityState {
     /// The bubbles the run left on the entity (its own nodes; not those of
     /// its boundary).
     pub bubbles: Vec<Bubble>,
+    /// A volume's tetrahedra, each as its four corners (positive
+    /// orientation, exact coordinates: a kept node has them bit for bit);
+    /// empty for edges and faces, and in a version 1 file.
+    pub tets: Vec<[P3; 4]>,
 }
 
 /// A saved packing.
@@ -88,7 +96,7 @@ pub enum StateError {
     #[error("not a {FORMAT} file (it does not start with \"{FORMAT} \")")]
     NotAState,
     /// Another version of the format.
-    #[error("{FORMAT} version {found} is not supported (this bubblemesh reads version {VERSION})")]
+    #[error("{FORMAT} version {found} is not supported (this bubblemesh reads versions 1 and {VERSION})")]
     Version {
         /// The version the file says.
         found: String,
@@ -101,20 +109,11 @@ pub enum StateError {
     Corrupt(String),
 }
 
-/// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) of `bytes`.
+/// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320, as zlib) of
+/// `bytes`, by `crc32fast` (a state with a solid's tetrahedra is
+/// megabytes: no bitwise loop over them).
 pub fn crc32(bytes: &[u8]) -> u32 {
-    let mut c = 0xFFFF_FFFFu32;
-    for &b in bytes {
-        c ^= b as u32;
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                (c >> 1) ^ 0xEDB8_8320
-            } else {
-                c >> 1
-            };
-        }
-    }
-    !c
+    crc32fast::hash(bytes)
 }
 
 /// Bytes of one bubble in the body (six `f64`).
@@ -123,6 +122,11 @@ const BUBBLE_BYTES: usize = 6 * 8;
 impl State {
     /// The file's bytes: the header, then the body.
     pub fn to_bytes(&self) -> Vec<u8> {
+        self.encode(VERSION)
+    }
+
+    /// The file's bytes in format `version` (1 leaves the tetrahedra out).
+    fn encode(&self, version: u32) -> Vec<u8> {
         let mut b = Vec::new();
         put_str(&mut b, &self.spacing);
         put_str(&mut b, &self.source);
@@ -149,8 +153,11 @@ impl State {
                     put_f64(&mut b, x);
                 }
             }
+            if version >= 2 {
+                put_tets(&mut b, e);
+            }
         }
-        let mut out = format!("{FORMAT} {VERSION}\n{} {:08x}\n", b.len(), crc32(&b)).into_bytes();
+        let mut out = format!("{FORMAT} {version}\n{} {:08x}\n", b.len(), crc32(&b)).into_bytes();
         out.extend_from_slice(&b);
         out
     }
@@ -164,7 +171,10 @@ impl State {
             return Err(StateError::NotAState);
         }
         let version = words.next().unwrap_or("").to_string();
-        if version != VERSION.to_string() || words.next().is_some() {
+        let Some(&v) = READS.iter().find(|v| v.to_string() == version) else {
+            return Err(StateError::Version { found: version });
+        };
+        if words.next().is_some() {
             return Err(StateError::Version { found: version });
         }
         let (line2, body) = split_line(rest)
@@ -202,8 +212,56 @@ impl State {
                 "the body does not match its checksum".into(),
             ));
         }
-        Reader { b: body, at: 0 }.state()
+        Reader {
+            b: body,
+            at: 0,
+            version: v,
+        }
+        .state()
     }
+}
+
+/// An entity's tetrahedra (version 2): the corners that are not among its
+/// bubbles (its boundary nodes) as a table of positions, then each
+/// tetrahedron as four indices into the bubbles followed by that table.
+fn put_tets(b: &mut Vec<u8>, e: &EntityState) {
+    let mut index: std::collections::HashMap<[u64; 3], u32> = e
+        .bubbles
+        .iter()
+        .enumerate()
+        .map(|(k, q)| (bits(&q.pos), k as u32))
+        .collect();
+    let mut extra: Vec<P3> = Vec::new();
+    let corners: Vec<[u32; 4]> = e
+        .tets
+        .iter()
+        .map(|t| {
+            t.map(|p| {
+                *index.entry(bits(&p)).or_insert_with(|| {
+                    extra.push(p);
+                    (e.bubbles.len() + extra.len() - 1) as u32
+                })
+            })
+        })
+        .collect();
+    put_u32(b, extra.len() as u32);
+    for p in &extra {
+        for x in [p.x, p.y, p.z] {
+            put_f64(b, x);
+        }
+    }
+    put_u32(b, corners.len() as u32);
+    for t in &corners {
+        for &k in t {
+            put_u32(b, k);
+        }
+    }
+}
+
+/// The exact bits of a position (a key that tells -0.0 from 0.0, as a kept
+/// node must be written back).
+pub fn bits(p: &P3) -> [u64; 3] {
+    [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
 }
 
 /// The first line of `b` (without its `\n`) and the rest.
@@ -229,6 +287,8 @@ fn put_str(b: &mut Vec<u8>, s: &str) {
 struct Reader<'a> {
     b: &'a [u8],
     at: usize,
+    /// The file's format version (one of [`READS`]).
+    version: u32,
 }
 
 impl Reader<'_> {
@@ -350,6 +410,11 @@ impl Reader<'_> {
             }
             bubbles.push(Bubble { params, pos, d });
         }
+        let tets = if self.version >= 2 {
+            self.tets(&what, &bubbles)?
+        } else {
+            Vec::new()
+        };
         Ok(EntityState {
             entity: EntityRef::new(dim, id),
             name,
@@ -360,7 +425,47 @@ impl Reader<'_> {
             },
             range,
             bubbles,
+            tets,
         })
+    }
+
+    /// An entity's tetrahedra (see [`put_tets`]).
+    fn tets(&mut self, what: &str, bubbles: &[Bubble]) -> Result<Vec<[P3; 4]>, StateError> {
+        let nc = self.u32(what)? as usize;
+        if nc > (self.b.len() - self.at) / 24 {
+            return Err(StateError::Corrupt(format!(
+                "{what}: {nc} corner nodes cannot fit in the body"
+            )));
+        }
+        let mut nodes: Vec<P3> = bubbles.iter().map(|q| q.pos).collect();
+        for _ in 0..nc {
+            nodes.push(P3::new(
+                self.finite(what)?,
+                self.finite(what)?,
+                self.finite(what)?,
+            ));
+        }
+        let nt = self.u32(what)? as usize;
+        if nt > (self.b.len() - self.at) / 16 {
+            return Err(StateError::Corrupt(format!(
+                "{what}: {nt} tetrahedra cannot fit in the body"
+            )));
+        }
+        let mut tets = Vec::with_capacity(nt);
+        for _ in 0..nt {
+            let mut t = [P3::origin(); 4];
+            for c in &mut t {
+                let k = self.u32(what)? as usize;
+                *c = *nodes.get(k).ok_or_else(|| {
+                    StateError::Corrupt(format!(
+                        "{what}: a tetrahedron's corner {k} is not one of its {} nodes",
+                        nodes.len()
+                    ))
+                })?;
+            }
+            tets.push(t);
+        }
+        Ok(tets)
     }
 }
 
@@ -388,6 +493,7 @@ mod tests {
                         pos: P3::new(0.5, 0.0, 0.0),
                         d: 0.1,
                     }],
+                    tets: vec![],
                 },
                 EntityState {
                     entity: EntityRef::new(2, 0),
@@ -405,6 +511,37 @@ mod tests {
                             d: 0.1,
                         };
                         3
+                    ],
+                    tets: vec![],
+                },
+                EntityState {
+                    entity: EntityRef::new(3, 0),
+                    name: None,
+                    fingerprint: Fingerprint {
+                        kind: "Volume".into(),
+                        measure: 6.0,
+                        centroid: P3::new(0.5, 0.5, 0.5),
+                    },
+                    range: [0.0, 0.0],
+                    bubbles: vec![Bubble {
+                        params: [0.0, 0.0],
+                        pos: P3::new(0.25, 0.25, 0.1 + 0.2),
+                        d: 0.1,
+                    }],
+                    // one corner a bubble of the volume, three on its boundary
+                    tets: vec![
+                        [
+                            P3::new(0.0, 0.0, 0.0),
+                            P3::new(1.0, 0.0, 0.0),
+                            P3::new(0.0, 1.0, 0.0),
+                            P3::new(0.25, 0.25, 0.1 + 0.2),
+                        ],
+                        [
+                            P3::new(0.0, 0.0, 0.0),
+                            P3::new(0.0, 1.0, 0.0),
+                            P3::new(-0.0, 0.0, 1.0),
+                            P3::new(0.25, 0.25, 0.1 + 0.2),
+                        ],
                     ],
                 },
             ],
@@ -473,21 +610,70 @@ mod tests {
     #[test]
     fn other_versions_and_formats_are_named() {
         let b = sample().to_bytes();
-        let mut v2 = b"bubblemesh-state 2".to_vec();
-        v2.extend_from_slice(&b[18..]);
+        let mut v9 = b"bubblemesh-state 9".to_vec();
+        v9.extend_from_slice(&b[18..]);
         assert_eq!(
-            State::from_bytes(&v2),
-            Err(StateError::Version { found: "2".into() })
+            State::from_bytes(&v9),
+            Err(StateError::Version { found: "9".into() })
         );
         assert_eq!(
             State::from_bytes(b"$MeshFormat\n4.1 0 8\n"),
             Err(StateError::NotAState)
         );
-        let msg = State::from_bytes(&v2).unwrap_err().to_string();
+        let msg = State::from_bytes(&v9).unwrap_err().to_string();
         assert!(
-            msg.contains("version 2") && msg.contains("reads version 1"),
+            msg.contains("version 9") && msg.contains("reads versions 1 and 2"),
             "{msg}"
         );
+    }
+
+    /// A version 1 file (written before states held tetrahedra) is read,
+    /// with no tetrahedra.
+    #[test]
+    fn version_1_files_are_read_without_tetrahedra() {
+        let s = sample();
+        let v1 = s.encode(1);
+        assert!(v1.starts_with(b"bubblemesh-state 1\n"));
+        let back = State::from_bytes(&v1).unwrap();
+        assert!(back.entities.iter().all(|e| e.tets.is_empty()));
+        let mut without = s.clone();
+        for e in &mut without.entities {
+            e.tets.clear();
+        }
+        assert_eq!(back, without);
+    }
+
+    /// A tetrahedron's corner index past the volume's nodes is an error.
+    #[test]
+    fn a_corner_outside_the_node_table_is_corrupt() {
+        let mut s = sample();
+        s.entities.truncate(2);
+        s.entities.push(EntityState {
+            tets: vec![],
+            ..sample().entities[2].clone()
+        });
+        let mut b = s.to_bytes();
+        // the body ends with the volume's nc = 0, nt = 0: make it one
+        // tetrahedron whose corners are 0, 0, 0, 7 (one bubble only)
+        let body_at = b
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| c == b'\n')
+            .nth(1)
+            .unwrap()
+            .0
+            + 1;
+        b.truncate(b.len() - 4);
+        b.extend_from_slice(&1u32.to_le_bytes());
+        for k in [0u32, 0, 0, 7] {
+            b.extend_from_slice(&k.to_le_bytes());
+        }
+        let body = b[body_at..].to_vec();
+        let mut f =
+            format!("{FORMAT} {VERSION}\n{} {:08x}\n", body.len(), crc32(&body)).into_bytes();
+        f.extend_from_slice(&body);
+        let err = State::from_bytes(&f).unwrap_err().to_string();
+        assert!(err.contains("corner 7 is not one of its 1 nodes"), "{err}");
     }
 
     #[test]

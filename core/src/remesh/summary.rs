@@ -6,9 +6,12 @@
 //! of it, else *added*; an old bubble is *removed* when no new node of its
 //! entity lies within half a spacing of it. With a spatial region, the old
 //! bubbles farther than [`region::BAND`] spacings from it must all be kept:
-//! `far_from_region` counts them and `far_kept` those that were.
+//! `far_from_region` counts them and `far_kept` those that were. A new
+//! tetrahedron is kept when an old one of its volume had exactly its
+//! corners (`tets_kept` of the state's `tets_old`).
 
-use std::collections::HashMap;
+// Fx hashing (rustc-hash): coordinate bits of one run, not chosen input
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use crate::geom::P3;
 use crate::mesh::Mesh;
@@ -70,6 +73,13 @@ pub struct Summary {
     /// Of those, how many a new node has at exactly their coordinates.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub far_kept: Option<usize>,
+    /// The state's tetrahedra of matched volumes (absent when it holds
+    /// none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tets_old: Option<usize>,
+    /// Of those, how many the new mesh has, corner for corner, bit for bit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tets_kept: Option<usize>,
 }
 
 /// Compares `state`'s bubbles on the matched entities with `mesh`.
@@ -84,7 +94,7 @@ pub fn summarise(
         matching,
         ..Default::default()
     };
-    let mut new_by: HashMap<EntityRef, Vec<P3>> = HashMap::new();
+    let mut new_by: HashMap<EntityRef, Vec<P3>> = HashMap::default();
     for n in &mesh.nodes {
         new_by.entry(n.entity).or_default().push(n.pos);
     }
@@ -97,8 +107,8 @@ pub fn summarise(
         let olds: Vec<P3> = old.bubbles.iter().map(|b| b.pos).collect();
         let dmax = old.bubbles.iter().map(|b| b.d).fold(0.0f64, f64::max);
         let h = (0.5 * dmax).max(f64::MIN_POSITIVE);
-        let exact: std::collections::HashSet<_> = olds.iter().map(bits).collect();
-        let new_exact: std::collections::HashSet<_> = new.iter().map(bits).collect();
+        let exact: HashSet<_> = olds.iter().map(bits).collect();
+        let new_exact: HashSet<_> = new.iter().map(bits).collect();
         let old_cells = Cells::new(&olds, h);
         let new_cells = Cells::new(&new, h);
         for p in new.iter().filter(|_| matched) {
@@ -126,5 +136,37 @@ pub fn summarise(
         s.far_from_region = Some(far);
         s.far_kept = Some(far_kept);
     }
+    (s.tets_old, s.tets_kept) = tets_kept(state, warm, mesh);
     s
+}
+
+/// The state's tetrahedra of matched volumes, and how many of them `mesh`
+/// has with the same corners bit for bit (`None`s when it holds none).
+fn tets_kept(
+    state: &State,
+    warm: &crate::remesh::WarmStart,
+    mesh: &Mesh,
+) -> (Option<usize>, Option<usize>) {
+    let key = |t: [P3; 4]| {
+        let mut k = t.map(|p| crate::remesh::state::bits(&p));
+        k.sort_unstable();
+        k
+    };
+    let mut old: HashSet<(EntityRef, [[u64; 3]; 4])> = HashSet::default();
+    for e in state
+        .entities
+        .iter()
+        .filter(|e| warm.of(e.entity).is_some())
+    {
+        old.extend(e.tets.iter().map(|t| (e.entity, key(*t))));
+    }
+    if old.is_empty() {
+        return (None, None);
+    }
+    let kept = mesh
+        .tetrahedra
+        .iter()
+        .filter(|t| old.contains(&(t.entity, key(t.nodes.map(|v| mesh.nodes[v as usize].pos)))))
+        .count();
+    (Some(old.len()), Some(kept))
 }

@@ -38,6 +38,10 @@ pub struct EntityStart {
     /// The old parameter range of an edge (`[t0, t1]`), to carry its
     /// bubbles' parameters over to the new range.
     pub range: [f64; 2],
+    /// A volume's old tetrahedra (corner positions): those whose corners
+    /// are all kept nodes and that nothing new enters are kept
+    /// ([`crate::volume`]'s `keep`).
+    pub tets: Vec<[P3; 4]>,
 }
 
 /// The warm start of every matched entity.
@@ -84,6 +88,23 @@ pub enum PlanError {
     /// The region frees no bubble.
     #[error("the region {0} selects nothing: no bubble of a matched entity lies in it or within {band} spacings of it", band = crate::remesh::region::BAND)]
     EmptyRegion(String),
+    /// A local re-meshing whose region leaves out a change of the
+    /// geometry: a bubble it would keep is no longer on its edge or face.
+    #[error("the region {region} leaves out a change of the geometry: {entity} moved by {moved:e} at ({x}, {y}, {z}), outside the region and its band; give a region that covers every change, or re-mesh without --region")]
+    ChangedOutside {
+        /// The region as written.
+        region: String,
+        /// The edge or face, described.
+        entity: String,
+        /// How far the kept bubble's point moved, model units.
+        moved: f64,
+        /// The old bubble.
+        x: f64,
+        /// See `x`.
+        y: f64,
+        /// See `x`.
+        z: f64,
+    },
     /// A listed face does not exist.
     #[error("the region names face {face}, but the model has {faces} faces (ids 0 to {last})", last = faces.saturating_sub(1))]
     NoSuchFace {
@@ -97,6 +118,13 @@ pub enum PlanError {
 /// Width of the band around the footprint of a change whose bubbles are
 /// free in a continuous re-meshing, in spacings.
 pub const FOOTPRINT_BAND: f64 = 3.0;
+
+/// A local re-meshing refuses a kept bubble of an edge or face whose
+/// carried-over position moved by more than this fraction of its diameter
+/// (the region leaves out a change of the geometry; looser than
+/// [`DISTURBED`], so that a re-export's rounding of the same geometry is
+/// not taken for a change).
+pub const OUTSIDE_TOL: f64 = 1e-6;
 
 /// A bubble is disturbed by a change when its carried-over position moved,
 /// or its spacing changed, by more than this fraction of its diameter.
@@ -182,6 +210,8 @@ pub fn plan(
         starts: HashMap::new(),
         local: region.is_some(),
     };
+    // the first kept bubble a local re-meshing finds off its geometry
+    let mut outside = None;
     for (e, old) in matched {
         // an edge's bubbles get their parameters on the new edge (and its
         // range), a kept one keeping its old coordinates
@@ -202,11 +232,23 @@ pub fn plan(
                 (None, Some(f)) => f.frees(b),
                 (None, None) => true,
             };
+            let (at, params) = carried(model, e, old.range, b);
+            if let (Some(r), false) = (region, free) {
+                // a kept node must still be on its edge or face
+                let moved = (at - b.pos).norm();
+                if e.dim < 3 && moved > OUTSIDE_TOL * b.d && outside.is_none() {
+                    outside = Some(PlanError::ChangedOutside {
+                        region: describe_region(r),
+                        entity: model.describe(e),
+                        moved,
+                        x: b.pos.x,
+                        y: b.pos.y,
+                        z: b.pos.z,
+                    });
+                }
+            }
             let b = match e.dim {
-                1 => Bubble {
-                    params: carried(model, e, old.range, b).1,
-                    ..*b
-                },
+                1 => Bubble { params, ..*b },
                 _ => *b,
             };
             if free {
@@ -215,6 +257,7 @@ pub fn plan(
                 start.kept.push(b);
             }
         }
+        start.tets = old.tets.clone();
         m.free_bubbles += start.free.len();
         m.kept_bubbles += start.kept.len();
         warm.starts.insert(e, start);
@@ -223,6 +266,9 @@ pub fn plan(
         if m.free_bubbles == 0 && !matches!(r, Region::Faces(_)) {
             return Err(PlanError::EmptyRegion(describe_region(r)));
         }
+    }
+    if let Some(e) = outside {
+        return Err(e);
     }
     Ok((warm, m))
 }

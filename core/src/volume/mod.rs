@@ -39,6 +39,7 @@
 pub use crate::options::VolumeLattice;
 
 pub(crate) mod connect;
+mod keep;
 pub(crate) mod recover;
 pub(crate) mod shell;
 pub(crate) mod split;
@@ -407,6 +408,9 @@ pub struct VolumeReport {
     /// all fixed ([`warm`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warm_released: Option<usize>,
+    /// Old tetrahedra a local re-meshing kept as they were ([`keep`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kept_tets: Option<usize>,
     pub relax: Option<crate::bubbles::system::RelaxStats>,
 }
 
@@ -738,6 +742,18 @@ fn attempt(
         rep.odt_iterations = tet::odt::odt_smooth(&mut tm, &params, inside).iterations;
     }
     rep.odt_s = t3.elapsed().as_secs_f64();
+    // a local re-meshing keeps the old tetrahedra away from its region
+    if let Some(old) = warm.map(|w| w.tets.as_slice()).filter(|t| !t.is_empty()) {
+        let inside = |p: &P3| sys.carrier.contains_point(p);
+        let sizes = (boundary.n_fixed(), n_keep);
+        if let Some(merged) =
+            keep::connect_around(&tm, sizes, &boundary.local, old, inside, &mut rep)
+        {
+            write_volume(job.entity, boundary, &merged, &mut rep, mesh);
+            timings.connect_s += t3.elapsed().as_secs_f64();
+            return Ok(Attempt::Done(Box::new(rep)));
+        }
+    }
     let first_qs = match connect_first(job, boundary, lattice, n_keep, &mut tm, &mut rep, mesh)? {
         First::GiveUp(frac) => return Ok(Attempt::GiveUp(frac)),
         First::Connected(qs) => qs,
@@ -749,7 +765,14 @@ fn attempt(
         // need it; a local one keeps them where they were
         let release = warm.is_some() && !job.opts.warm.as_deref().is_some_and(|w| w.local);
         remove_slivers(
-            boundary, n_keep, release, &mut tm, first_qs, inside, &mut rep, mesh,
+            (&boundary.local, boundary.n_fixed()),
+            n_keep,
+            release,
+            &mut tm,
+            first_qs,
+            inside,
+            &mut rep,
+            &|e| connect_error(e, &boundary.global, mesh),
         )?;
     }
     rep.sliver_s = t.elapsed().as_secs_f64();
@@ -890,21 +913,25 @@ fn connect_first(
 /// the tetrahedra, if the caller has them. The first `n_keep` nodes keep
 /// their indices and never move, except, with `release`, the kept bubbles
 /// of a warm start at the corners of a sliver among fixed nodes.
+///
+/// The tetrahedra's boundary is `sides`: the boundary triangles (local
+/// node ids, outward), whose corners are the first `n_fixed` nodes; a
+/// failed re-connection is reported through `failed`.
 #[allow(clippy::too_many_arguments)]
 fn remove_slivers(
-    boundary: &Boundary,
+    sides: (&[[u32; 3]], usize),
     n_keep: usize,
     release: bool,
     tm: &mut TetMesh,
     first_qs: Option<Vec<f64>>,
     inside: impl Fn(&P3) -> bool,
     rep: &mut VolumeReport,
-    mesh: &crate::mesh::Mesh,
+    failed: &dyn Fn(connect::Connect3dError) -> MeshError,
 ) -> Result<(), MeshError> {
     use tet::sliver::{remove_slivers, remove_slivers_given, SliverParams};
     use tet::steiner::{steiner_points, with_points, FLAT_Q, STEINER_ROUNDS};
     let params = SliverParams::default();
-    let n_fixed = boundary.n_fixed();
+    let (local, n_fixed) = sides;
     // the Delaunay tetrahedralization's flat tetrahedra among boundary
     // nodes: flips remove most, but which ones they leave depends on the
     // order they meet them, so every one gets its Steiner points now
@@ -960,8 +987,7 @@ fn remove_slivers(
         // the kept nodes, then the new ones; fixed nodes keep their
         // indices (the boundary triangles refer to them)
         let (pos2, d2) = with_points(tm, n_keep, extra);
-        let conn = connect::connect_volume(&pos2, n_fixed, &boundary.local)
-            .map_err(|e| connect_error(e, &boundary.global, mesh))?;
+        let conn = connect::connect_volume(&pos2, n_fixed, local).map_err(failed)?;
         rep.recovery_removed += conn.removed;
         *tm = TetMesh {
             movable: (0..pos2.len())

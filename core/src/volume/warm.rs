@@ -5,11 +5,14 @@
 //!   change, or outside a local re-meshing's region) become fixed bubbles
 //!   after the boundary's, at their old coordinates, bit for bit; they stay
 //!   fixed through stage 2, the ODT smoothing, the sliver pass and the
-//!   polish, and become nodes of the volume unmoved. The one exception, in
-//!   a continuous re-meshing only: a kept corner of a sliver whose corners
-//!   are all fixed moves in the sliver pass (the Delaunay connection of the
-//!   old nodes need not be the old mesh's; a Steiner point there costs a
-//!   re-connection), and the report counts them (`warm_released`).
+//!   polish, and become nodes of the volume unmoved, with the old
+//!   tetrahedra among them ([`super::keep`]). The one exception, in a
+//!   continuous re-meshing whose old tetrahedra cannot be kept (a version 1
+//!   state, or [`super::keep`] gave up): a kept corner of a sliver whose
+//!   corners are all fixed moves in the sliver pass (the Delaunay
+//!   connection of the old nodes need not be the old mesh's; a Steiner
+//!   point there costs a re-connection), and the report counts them
+//!   (`warm_released`).
 //! - Free old bubbles stay where they were (a volume's bubbles have no
 //!   parameters to carry them by); those now outside the volume are
 //!   dropped, and those crowding the boundary, a kept bubble or each other

@@ -423,14 +423,20 @@ impl Default for FlipParams {
 }
 
 /// Edge removals and 2-3 flips around every tetrahedron whose
-/// [`objective`](super::star::objective) is below [`TARGET_Q`], each
+/// [`objective`](super::star::objective) is below `target` (the sliver
+/// pass's: [`TARGET_Q`] unless asked for more), each
 /// accepted only when it raises the worst objective of the tetrahedra it
 /// replaces (so it terminates); up to `params.worst_sweeps` sweeps. `qs[i]`
 /// is the objective of `mesh.tets[i]`, on entry and on return. Nodes never
 /// move. Returns the flips made.
-pub(crate) fn raise_worst(mesh: &mut TetMesh, params: &FlipParams, qs: &mut Vec<f64>) -> usize {
+pub(crate) fn raise_worst(
+    mesh: &mut TetMesh,
+    params: &FlipParams,
+    target: f64,
+    qs: &mut Vec<f64>,
+) -> usize {
     let (pos, tets) = (&mesh.pos, &mut mesh.tets);
-    sweep(pos, tets, qs, Goal::Worst, TARGET_Q, params.worst_sweeps)
+    sweep(pos, tets, qs, Goal::Worst, target, params.worst_sweeps)
 }
 
 /// One sweep of edge removals and 2-3 flips around every tetrahedron whose
@@ -536,7 +542,7 @@ mod tests {
         let w0 = worst_objective(&pos, &tets0);
         assert!(w0 < TARGET_Q);
         let mut qs = mesh.objectives();
-        assert!(raise_worst(&mut mesh, &FlipParams::default(), &mut qs) > 0);
+        assert!(raise_worst(&mut mesh, &FlipParams::default(), TARGET_Q, &mut qs) > 0);
         assert_eq!(mesh.pos, pos, "flips move no node");
         let tets = mesh.tets;
         for (t, q) in tets.iter().zip(&qs) {

@@ -21,6 +21,9 @@ use crate::geom::{P3, V3};
 /// The sliver pass's tuning.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SliverParams {
+    /// Tetrahedra whose objective is below this are worked on
+    /// ([`TARGET_Q`]; a higher one asks for more where the mesh is small).
+    pub target: f64,
     /// Rounds of the pattern search per smoothing pass.
     pub rounds: usize,
     /// Rounds of flips and pattern search in [`remove_slivers`].
@@ -34,6 +37,7 @@ pub(crate) struct SliverParams {
 impl Default for SliverParams {
     fn default() -> Self {
         SliverParams {
+            target: TARGET_Q,
             rounds: 4,
             flip_smooth_rounds: 3,
             max_move: 0.35,
@@ -45,10 +49,10 @@ impl Default for SliverParams {
 /// What sliver removal did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct SliverStats {
-    /// Tetrahedra below `TARGET_Q` before and after, and the worst
-    /// objective.
+    /// Tetrahedra below the pass's target (`TARGET_Q` by default) before
+    /// and after, and the worst objective.
     pub bad_before: usize,
-    /// Tetrahedra below `TARGET_Q` after.
+    /// Tetrahedra below the target after.
     pub bad_after: usize,
     /// The worst objective before.
     pub min_q_before: f64,
@@ -62,7 +66,7 @@ pub struct SliverStats {
 
 /// The sliver pass: flips and moves of free nodes (`mesh.movable`) that
 /// raise the worst [`objective`](super::star::objective) of the
-/// tetrahedra below [`TARGET_Q`]. Tetrahedra must be positively oriented
+/// tetrahedra below `params.target` ([`TARGET_Q`] by default). Tetrahedra must be positively oriented
 /// and stay so; boundary faces and fixed nodes are never touched.
 pub(crate) fn remove_slivers(mesh: &mut TetMesh, params: &SliverParams) -> SliverStats {
     let qs = mesh.objectives();
@@ -81,7 +85,7 @@ pub(crate) fn remove_slivers_given(
 ) -> SliverStats {
     debug_assert_eq!(qs.len(), mesh.tets.len());
     let mut stats = SliverStats {
-        bad_before: qs.iter().filter(|&&q| q < TARGET_Q).count(),
+        bad_before: qs.iter().filter(|&&q| q < params.target).count(),
         min_q_before: qs.iter().cloned().fold(1.0, f64::min),
         ..Default::default()
     };
@@ -99,7 +103,7 @@ pub(crate) fn remove_slivers_given(
         if stats.bad_after == 0 {
             break;
         }
-        stats.flips += super::flip::raise_worst(mesh, &params.flips, &mut qs);
+        stats.flips += super::flip::raise_worst(mesh, &params.flips, params.target, &mut qs);
         let s = search_moves(mesh, params, &mut qs);
         stats.moves += s.moves;
         stats.bad_after = s.bad_after;
@@ -108,14 +112,14 @@ pub(crate) fn remove_slivers_given(
     stats
 }
 
-/// [`remove_slivers`] where few tetrahedra are below [`TARGET_Q`]: the same
+/// [`remove_slivers`] where few tetrahedra are below `params.target`: the same
 /// passes on the part of the mesh around them only. The part is the stars
 /// of the bad tetrahedra's nodes and of their neighbours; only those nodes
 /// (whose whole star is in the part) may move, and a flip needs a closed
 /// edge ring or a face with two tetrahedra in the part, which are then the
 /// mesh's own, so the rest of the mesh is untouched and stays conforming.
-/// Returns `None` when no tetrahedron is below [`TARGET_Q`], else what
-/// [`remove_slivers`] did and the tetrahedra still below [`TARGET_Q`] (all of
+/// Returns `None` when no tetrahedron is below `params.target`, else what
+/// [`remove_slivers`] did and the tetrahedra still below it (all of
 /// them: the others are untouched and were not).
 ///
 /// Why: after the polish, case K keeps about ten such tetrahedra among
@@ -132,7 +136,7 @@ pub(crate) fn remove_slivers_near_bad(
         tets,
     } = mesh;
     let bad: Vec<usize> = (0..tets.len())
-        .filter(|&t| objective_of(pos, &tets[t]) < TARGET_Q)
+        .filter(|&t| objective_of(pos, &tets[t]) < params.target)
         .collect();
     if bad.is_empty() {
         return None;
@@ -201,7 +205,7 @@ pub(crate) fn remove_slivers_near_bad(
     });
     let still_bad = part
         .iter()
-        .filter(|t| objective_of(&lpos, t) < TARGET_Q)
+        .filter(|t| objective_of(&lpos, t) < params.target)
         .map(|t| t.map(|l| global[l as usize] as u32))
         .collect();
     tets.extend(part.iter().map(|t| t.map(|l| global[l as usize] as u32)));
@@ -209,7 +213,7 @@ pub(crate) fn remove_slivers_near_bad(
 }
 
 /// The node moves of [`remove_slivers`]: a pattern search per free node
-/// of a tetrahedron below [`TARGET_Q`], worst first. `qs[i]` is the
+/// of a tetrahedron below `params.target`, worst first. `qs[i]` is the
 /// objective of `mesh.tets[i]`, on entry and on return.
 fn search_moves(mesh: &mut TetMesh, params: &SliverParams, qs: &mut [f64]) -> SliverStats {
     let TetMesh {
@@ -226,7 +230,7 @@ fn search_moves(mesh: &mut TetMesh, params: &SliverParams, qs: &mut [f64]) -> Sl
     // within a pass): the rounds read their work from them instead of
     // re-evaluating 2.7 M tetrahedra each (case K)
     let mut stats = SliverStats {
-        bad_before: qs.iter().filter(|&&q| q < TARGET_Q).count(),
+        bad_before: qs.iter().filter(|&&q| q < params.target).count(),
         min_q_before: qs.iter().cloned().fold(1.0, f64::min),
         ..Default::default()
     };
@@ -255,7 +259,7 @@ fn search_moves(mesh: &mut TetMesh, params: &SliverParams, qs: &mut [f64]) -> Sl
         let mut work: Vec<(f64, usize)> = Vec::new();
         let mut seen = vec![false; n];
         for (t, &q) in tets.iter().zip(qs.iter()) {
-            if q < TARGET_Q {
+            if q < params.target {
                 for &v in t {
                     let v = v as usize;
                     if movable[v] && !seen[v] && !stuck[v] {
@@ -320,7 +324,7 @@ fn search_moves(mesh: &mut TetMesh, params: &SliverParams, qs: &mut [f64]) -> Sl
             break;
         }
     }
-    stats.bad_after = qs.iter().filter(|&&q| q < TARGET_Q).count();
+    stats.bad_after = qs.iter().filter(|&&q| q < params.target).count();
     stats.min_q_after = qs.iter().cloned().fold(1.0, f64::min);
     stats
 }
