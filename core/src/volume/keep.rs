@@ -28,6 +28,9 @@
 //!    ([`is_complex`]); if not — or if anything above fails — the caller
 //!    connects the whole volume as before (the nodes are kept either way).
 //!
+//! The steps are this module's; the volume's passes run them in order
+//! ([`super`]'s `connect_keeping`).
+//!
 //! Invariants: kept tetrahedra are written with the old corner coordinates
 //! bit for bit; no new node lies in a kept tetrahedron; the result passes
 //! [`is_complex`] or is not used.
@@ -37,10 +40,7 @@
 // warm re-meshing's time
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
-use super::connect::{connect_volume, Connect3dError};
 use super::tet::mesh::TetMesh;
-use super::{Lattice, VolumeReport};
-use crate::error::MeshError;
 use crate::geom::P3;
 use crate::measure::TET_FACES;
 use crate::remesh::state::bits;
@@ -324,136 +324,13 @@ impl Cavity {
     }
 }
 
-/// The volume's tetrahedra with the old ones `old` kept where they can be
-/// (module docs): `tm` holds the volume's nodes after stage 2 and the ODT
-/// smoothing (the first `n_fixed` on its boundary, the first `n_keep`
-/// fixed), `boundary` its outward triangles, `inside` its inside test.
-/// The result's first `n_keep` nodes are `tm`'s, then the free ones (new
-/// positions) and Steiner points; `None` when no old tetrahedron can stay
-/// or the kept ones and the cavity's do not make the volume, and then
-/// `rep` is untouched.
-pub(super) fn connect_around(
-    tm: &TetMesh,
-    (n_fixed, n_keep): (usize, usize),
-    boundary: &[[u32; 3]],
-    old: &[[P3; 4]],
-    inside: impl Fn(&P3) -> bool,
-    rep: &mut VolumeReport,
-) -> Option<TetMesh> {
-    let mut kept = kept_tets(&tm.pos, n_fixed, n_keep, boundary, old);
-    for _ in 0..=RECOVERY_ROUNDS {
-        if kept.is_empty() {
-            return None;
-        }
-        let Some(cav) = Cavity::of(tm.pos.len(), n_keep, boundary, &kept) else {
-            // nothing changed in this volume
-            let out = TetMesh {
-                pos: tm.pos[..n_keep].to_vec(),
-                d: tm.d[..n_keep].to_vec(),
-                movable: vec![false; n_keep],
-                tets: kept,
-            };
-            rep.kept_tets = Some(out.tets.len());
-            return is_complex(&out.pos, &out.tets, boundary).then_some(out);
-        };
-        let pos: Vec<P3> = cav.nodes.iter().map(|&k| tm.pos[k as usize]).collect();
-        let t = std::time::Instant::now();
-        let conn = match connect_volume(&pos, cav.n_fixed, &cav.boundary) {
-            Ok(conn) => conn,
-            Err(Connect3dError::NotConforming { triangles, .. }) => {
-                // the kept tetrahedra at the corners of what was not
-                // recovered join the cavity
-                let at: HashSet<u32> = triangles
-                    .iter()
-                    .flat_map(|&k| cav.boundary[k as usize].map(|v| cav.nodes[v as usize]))
-                    .collect();
-                let before = kept.len();
-                kept.retain(|t| !t.iter().any(|v| at.contains(v)));
-                if kept.len() == before {
-                    return None;
-                }
-                continue;
-            }
-            Err(_) => return None,
-        };
-        let mut r = rep.clone();
-        r.delaunay_s = t.elapsed().as_secs_f64();
-        r.recovery_removed = conn.removed;
-        let mut c = TetMesh {
-            movable: (0..pos.len())
-                .map(|i| i >= cav.n_keep && conn.kept[i])
-                .collect(),
-            d: cav.nodes.iter().map(|&k| tm.d[k as usize]).collect(),
-            pos,
-            tets: conn.tets,
-        };
-        let t = std::time::Instant::now();
-        {
-            // Steiner points only where nothing is kept (the grid is built
-            // when the first is asked for: most cavities need none)
-            let grid = std::cell::OnceCell::new();
-            let in_cavity = |p: &P3| {
-                inside(p)
-                    && grid
-                        .get_or_init(|| TetGrid::new(&tm.pos, &kept))
-                        .containing(p)
-                        .next()
-                        .is_none()
-            };
-            super::remove_slivers(
-                (&cav.boundary, cav.n_fixed),
-                cav.n_keep,
-                false,
-                &mut c,
-                None,
-                in_cavity,
-                &mut r,
-                &|e: Connect3dError| MeshError::Volume(e),
-            )
-            .ok()?;
-        }
-        r.sliver_s = t.elapsed().as_secs_f64();
-        if super::polish(Lattice::Fcc, &mut c, &mut r).is_some() {
-            return None;
-        }
-        raise_worst(&mut c, &mut r);
-        super::refuse_flat(&c, r.steiner).ok()?;
-        let mut out = TetMesh {
-            pos: tm.pos[..n_keep].to_vec(),
-            d: tm.d[..n_keep].to_vec(),
-            movable: vec![false; n_keep],
-            tets: kept,
-        };
-        let map: Vec<u32> = (0..c.pos.len())
-            .map(|i| {
-                if i < cav.n_keep {
-                    cav.nodes[i]
-                } else {
-                    out.pos.push(c.pos[i]);
-                    out.d.push(c.d[i]);
-                    out.movable.push(true);
-                    (out.pos.len() - 1) as u32
-                }
-            })
-            .collect();
-        r.kept_tets = Some(out.tets.len());
-        out.tets
-            .extend(c.tets.iter().map(|t| t.map(|k| map[k as usize])));
-        if !is_complex(&out.pos, &out.tets, boundary) {
-            return None;
-        }
-        *rep = r;
-        return Some(out);
-    }
-    None
-}
-
 /// The sliver pass's target for a cavity's last pass ([`raise_worst`]).
 pub(super) const CAVITY_TARGET: f64 = 0.6;
 
 /// One more sliver pass over the cavity's tetrahedra below
 /// [`CAVITY_TARGET`] (the whole volume's stops at
-/// [`TARGET_Q`](super::tet::star::TARGET_Q)).
+/// [`TARGET_Q`](super::tet::star::TARGET_Q)); what it did, if anything was
+/// below.
 ///
 /// Why: a warm start is judged against meshing from scratch, and a
 /// cavity's worst tetrahedra are where the change is, next to fixed
@@ -461,15 +338,12 @@ pub(super) const CAVITY_TARGET: f64 = 0.6;
 /// from scratch. The cavity is small, so its worst can be asked for more
 /// at little cost; the pass only accepts moves and flips that raise the
 /// worst of what they touch.
-fn raise_worst(c: &mut TetMesh, r: &mut VolumeReport) {
+pub(super) fn raise_worst(c: &mut TetMesh) -> Option<super::tet::SliverStats> {
     let params = super::tet::sliver::SliverParams {
         target: CAVITY_TARGET,
         ..Default::default()
     };
-    if let Some((s, _)) = super::tet::sliver::remove_slivers_near_bad(c, &params) {
-        r.slivers.moves += s.moves;
-        r.slivers.flips += s.flips;
-    }
+    super::tet::sliver::remove_slivers_near_bad(c, &params).map(|(s, _)| s)
 }
 
 /// Whether `tets` (indices into `pos`) form a tetrahedral complex whose

@@ -746,9 +746,7 @@ fn attempt(
     if let Some(old) = warm.map(|w| w.tets.as_slice()).filter(|t| !t.is_empty()) {
         let inside = |p: &P3| sys.carrier.contains_point(p);
         let sizes = (boundary.n_fixed(), n_keep);
-        if let Some(merged) =
-            keep::connect_around(&tm, sizes, &boundary.local, old, inside, &mut rep)
-        {
+        if let Some(merged) = connect_keeping(&tm, sizes, &boundary.local, old, inside, &mut rep) {
             write_volume(job.entity, boundary, &merged, &mut rep, mesh);
             timings.connect_s += t3.elapsed().as_secs_f64();
             return Ok(Attempt::Done(Box::new(rep)));
@@ -785,6 +783,133 @@ fn attempt(
     write_volume(job.entity, boundary, &tm, &mut rep, mesh);
     timings.connect_s += t3.elapsed().as_secs_f64();
     Ok(Attempt::Done(Box::new(rep)))
+}
+
+/// The volume's tetrahedra with the old ones `old` kept where they can be
+/// ([`keep`]'s module docs): `tm` holds the volume's nodes after stage 2 and the ODT
+/// smoothing (the first `n_fixed` on its boundary, the first `n_keep`
+/// fixed), `boundary` its outward triangles, `inside` its inside test.
+/// The result's first `n_keep` nodes are `tm`'s, then the free ones (new
+/// positions) and Steiner points; `None` when no old tetrahedron can stay
+/// or the kept ones and the cavity's do not make the volume, and then
+/// `rep` is untouched.
+fn connect_keeping(
+    tm: &TetMesh,
+    (n_fixed, n_keep): (usize, usize),
+    boundary: &[[u32; 3]],
+    old: &[[P3; 4]],
+    inside: impl Fn(&P3) -> bool,
+    rep: &mut VolumeReport,
+) -> Option<TetMesh> {
+    let mut kept = keep::kept_tets(&tm.pos, n_fixed, n_keep, boundary, old);
+    for _ in 0..=keep::RECOVERY_ROUNDS {
+        if kept.is_empty() {
+            return None;
+        }
+        let Some(cav) = keep::Cavity::of(tm.pos.len(), n_keep, boundary, &kept) else {
+            // nothing changed in this volume
+            let out = TetMesh {
+                pos: tm.pos[..n_keep].to_vec(),
+                d: tm.d[..n_keep].to_vec(),
+                movable: vec![false; n_keep],
+                tets: kept,
+            };
+            rep.kept_tets = Some(out.tets.len());
+            return keep::is_complex(&out.pos, &out.tets, boundary).then_some(out);
+        };
+        let pos: Vec<P3> = cav.nodes.iter().map(|&k| tm.pos[k as usize]).collect();
+        let t = std::time::Instant::now();
+        let conn = match connect::connect_volume(&pos, cav.n_fixed, &cav.boundary) {
+            Ok(conn) => conn,
+            Err(connect::Connect3dError::NotConforming { triangles, .. }) => {
+                // the kept tetrahedra at the corners of what was not
+                // recovered join the cavity
+                let at: std::collections::HashSet<u32> = triangles
+                    .iter()
+                    .flat_map(|&k| cav.boundary[k as usize].map(|v| cav.nodes[v as usize]))
+                    .collect();
+                let before = kept.len();
+                kept.retain(|t| !t.iter().any(|v| at.contains(v)));
+                if kept.len() == before {
+                    return None;
+                }
+                continue;
+            }
+            Err(_) => return None,
+        };
+        let mut r = rep.clone();
+        r.delaunay_s = t.elapsed().as_secs_f64();
+        r.recovery_removed = conn.removed;
+        let mut c = TetMesh {
+            movable: (0..pos.len())
+                .map(|i| i >= cav.n_keep && conn.kept[i])
+                .collect(),
+            d: cav.nodes.iter().map(|&k| tm.d[k as usize]).collect(),
+            pos,
+            tets: conn.tets,
+        };
+        let t = std::time::Instant::now();
+        {
+            // Steiner points only where nothing is kept (the grid is built
+            // when the first is asked for: most cavities need none)
+            let grid = std::cell::OnceCell::new();
+            let in_cavity = |p: &P3| {
+                inside(p)
+                    && grid
+                        .get_or_init(|| keep::TetGrid::new(&tm.pos, &kept))
+                        .containing(p)
+                        .next()
+                        .is_none()
+            };
+            remove_slivers(
+                (&cav.boundary, cav.n_fixed),
+                cav.n_keep,
+                false,
+                &mut c,
+                None,
+                in_cavity,
+                &mut r,
+                &|e: connect::Connect3dError| MeshError::Volume(e),
+            )
+            .ok()?;
+        }
+        r.sliver_s = t.elapsed().as_secs_f64();
+        if polish(Lattice::Fcc, &mut c, &mut r).is_some() {
+            return None;
+        }
+        if let Some(s) = keep::raise_worst(&mut c) {
+            r.slivers.moves += s.moves;
+            r.slivers.flips += s.flips;
+        }
+        refuse_flat(&c, r.steiner).ok()?;
+        let mut out = TetMesh {
+            pos: tm.pos[..n_keep].to_vec(),
+            d: tm.d[..n_keep].to_vec(),
+            movable: vec![false; n_keep],
+            tets: kept,
+        };
+        let map: Vec<u32> = (0..c.pos.len())
+            .map(|i| {
+                if i < cav.n_keep {
+                    cav.nodes[i]
+                } else {
+                    out.pos.push(c.pos[i]);
+                    out.d.push(c.d[i]);
+                    out.movable.push(true);
+                    (out.pos.len() - 1) as u32
+                }
+            })
+            .collect();
+        r.kept_tets = Some(out.tets.len());
+        out.tets
+            .extend(c.tets.iter().map(|t| t.map(|k| map[k as usize])));
+        if !keep::is_complex(&out.pos, &out.tets, boundary) {
+            return None;
+        }
+        *rep = r;
+        return Some(out);
+    }
+    None
 }
 
 /// Stage 1: the boundary nodes as fixed bubbles and the `lattice` seeds
