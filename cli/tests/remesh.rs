@@ -497,3 +497,103 @@ fn a_solid_remeshes_warm_and_keeps_its_interior() {
         })
     );
 }
+
+/// A local re-meshing of a solid whose mesh needed Steiner points
+/// (fixtures/step/thin_ribs.step at 1.2: thin ribs, several hundred):
+/// every old node farther than two spacings from the region is kept bit
+/// for bit, and every old tetrahedron among them. Connecting the whole
+/// volume anew, its boundary recovery removed 7 of the 3,517 far nodes.
+#[test]
+fn a_local_remesh_of_a_solid_with_steiner_points_keeps_far_nodes_and_tetrahedra() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    let step = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/step/thin_ribs.step")
+        .display()
+        .to_string();
+    let old = meshed(
+        &[
+            "mesh",
+            &step,
+            "-o",
+            &p("old.msh"),
+            "--size",
+            "1.2",
+            "--dim",
+            "3",
+            "--save-state",
+            &p("old.state"),
+        ],
+        &dir.path().join("old.json"),
+    );
+    let steiner: u64 = old["engine"]["volumes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["steiner"].as_u64().unwrap_or(0))
+        .sum();
+    assert!(
+        steiner > 100,
+        "{steiner} Steiner points: not the case meant"
+    );
+    // a sphere around the lowest corner of the part's box
+    let nodes = bubblemesh_io::read(Path::new(&p("old.msh"))).unwrap().nodes;
+    let (mut lo, mut hi) = (nodes[0].pos, nodes[0].pos);
+    for n in &nodes {
+        for k in 0..3 {
+            lo[k] = lo[k].min(n.pos[k]);
+            hi[k] = hi[k].max(n.pos[k]);
+        }
+    }
+    let r = (hi - lo).norm() / 6.0;
+    let region = format!("sphere:{},{},{},{r}", lo.x, lo.y, lo.z);
+    let local = meshed(
+        &[
+            "remesh",
+            &p("old.state"),
+            &step,
+            "-o",
+            &p("local.msh"),
+            "--size",
+            "1.2",
+            "--dim",
+            "3",
+            "--region",
+            &region,
+        ],
+        &dir.path().join("local.json"),
+    );
+    let d = 1.2;
+    let far = |c: &[u64; 3]| {
+        let x = bubblemesh_core::geom::P3::new(
+            f64::from_bits(c[0]),
+            f64::from_bits(c[1]),
+            f64::from_bits(c[2]),
+        );
+        (x - lo).norm() - r > 2.0 * d
+    };
+    let now: std::collections::HashSet<_> =
+        msh_nodes(Path::new(&p("local.msh"))).into_iter().collect();
+    let far_nodes: Vec<_> = msh_nodes(Path::new(&p("old.msh")))
+        .into_iter()
+        .filter(|c| far(c))
+        .collect();
+    let lost = far_nodes.iter().filter(|c| !now.contains(*c)).count();
+    assert!(far_nodes.len() > 1000);
+    assert_eq!(lost, 0, "{lost} of {} far nodes moved", far_nodes.len());
+    let new_tets: std::collections::HashSet<_> =
+        msh_tets(Path::new(&p("local.msh"))).into_iter().collect();
+    let far_tets: Vec<_> = msh_tets(Path::new(&p("old.msh")))
+        .into_iter()
+        .filter(|t| t.iter().all(&far))
+        .collect();
+    let lost = far_tets.iter().filter(|t| !new_tets.contains(*t)).count();
+    assert_eq!(
+        lost,
+        0,
+        "{lost} of {} far tetrahedra changed",
+        far_tets.len()
+    );
+    let s = &local["remesh"]["summary"];
+    assert_eq!(s["far_kept"], s["far_from_region"]);
+}

@@ -819,18 +819,31 @@ fn connect_keeping(
         };
         let pos: Vec<P3> = cav.nodes.iter().map(|&k| tm.pos[k as usize]).collect();
         let t = std::time::Instant::now();
+        // the kept tetrahedra at the corners of boundary triangles that were
+        // not recovered join the cavity, and those with a corner in their
+        // diametral balls (a kept node blocks a boundary triangle there,
+        // which the cavity cannot remove); false when none did
+        let hand_over = |triangles: &[u32], kept: &mut Vec<[u32; 4]>| {
+            let mut at: std::collections::HashSet<u32> = Default::default();
+            let mut balls = Vec::new();
+            for &k in triangles {
+                let t = cav.boundary[k as usize].map(|v| cav.nodes[v as usize]);
+                at.extend(t);
+                let [a, b, c] = t.map(|v| tm.pos[v as usize]);
+                balls.push(crate::measure::triangle_circumball(&a, &b, &c));
+            }
+            let in_ball = |v: u32| {
+                let p = tm.pos[v as usize];
+                balls.iter().any(|(c, r)| (p - c).norm() <= *r)
+            };
+            let before = kept.len();
+            kept.retain(|t| !t.iter().any(|&v| at.contains(&v) || in_ball(v)));
+            kept.len() < before
+        };
         let conn = match connect::connect_volume(&pos, cav.n_fixed, &cav.boundary) {
             Ok(conn) => conn,
             Err(connect::Connect3dError::NotConforming { triangles, .. }) => {
-                // the kept tetrahedra at the corners of what was not
-                // recovered join the cavity
-                let at: std::collections::HashSet<u32> = triangles
-                    .iter()
-                    .flat_map(|&k| cav.boundary[k as usize].map(|v| cav.nodes[v as usize]))
-                    .collect();
-                let before = kept.len();
-                kept.retain(|t| !t.iter().any(|v| at.contains(v)));
-                if kept.len() == before {
+                if !hand_over(&triangles, &mut kept) {
                     return None;
                 }
                 continue;
@@ -861,7 +874,9 @@ fn connect_keeping(
                         .next()
                         .is_none()
             };
-            remove_slivers(
+            // a Steiner round's re-connection that misses boundary
+            // triangles hands their kept tetrahedra over as above
+            let done = remove_slivers(
                 (&cav.boundary, cav.n_fixed),
                 cav.n_keep,
                 false,
@@ -870,8 +885,21 @@ fn connect_keeping(
                 in_cavity,
                 &mut r,
                 &|e: connect::Connect3dError| MeshError::Volume(e),
-            )
-            .ok()?;
+            );
+            match done {
+                Ok(()) => {}
+                Err(MeshError::Volume(connect::Connect3dError::NotConforming {
+                    triangles,
+                    ..
+                })) => {
+                    drop(grid);
+                    if !hand_over(&triangles, &mut kept) {
+                        return None;
+                    }
+                    continue;
+                }
+                Err(_) => return None,
+            }
         }
         r.sliver_s = t.elapsed().as_secs_f64();
         if polish(Lattice::Fcc, &mut c, &mut r).is_some() {

@@ -51,7 +51,8 @@ pub(super) const STAGE2_STEPS: usize = 20;
 pub(super) const ODT_ITERATIONS: usize = 3;
 
 /// A kept bubble closer than this many of its spacings to a boundary
-/// bubble is dropped (a re-meshed boundary came onto it).
+/// bubble that is not an old node is dropped (a re-meshed boundary came
+/// onto it).
 const ON_TOP: f64 = 0.25;
 
 /// What a warm stage 1 did, for the report: kept (fixed) old bubbles, free
@@ -103,6 +104,16 @@ pub(super) fn stage1<'a, C: Carrier>(
         fixed.pos,
         fixed.d.iter().cloned().fold(f64::MIN_POSITIVE, f64::max),
     );
+    // the old mesh's nodes (corners of its tetrahedra, when the state has
+    // them): a boundary node among them was there before, beside the kept
+    // bubble, so it does not make it crowd (a Steiner point near the
+    // boundary stays)
+    let old: rustc_hash::FxHashSet<[u64; 3]> = start
+        .tets
+        .iter()
+        .flatten()
+        .map(crate::remesh::state::bits)
+        .collect();
     for b in &start.kept {
         if !inside(&b.pos) {
             continue;
@@ -110,7 +121,9 @@ pub(super) fn stage1<'a, C: Carrier>(
         let d = d_at(&b.pos)?;
         let mut on_top = false;
         bgrid.query(&b.pos, ON_TOP * d, |j| {
-            on_top |= (fixed.pos[j as usize] - b.pos).norm() < ON_TOP * d;
+            let q = fixed.pos[j as usize];
+            on_top |=
+                (q - b.pos).norm() < ON_TOP * d && !old.contains(&crate::remesh::state::bits(&q));
         });
         if !on_top {
             fixed_pos.push(b.pos);
