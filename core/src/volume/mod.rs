@@ -408,7 +408,7 @@ pub struct VolumeReport {
     /// all fixed ([`warm`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warm_released: Option<usize>,
-    /// Old tetrahedra a local re-meshing kept as they were ([`keep`]).
+    /// Old tetrahedra a re-meshing kept as they were ([`keep`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kept_tets: Option<usize>,
     pub relax: Option<crate::bubbles::system::RelaxStats>,
@@ -742,7 +742,7 @@ fn attempt(
         rep.odt_iterations = tet::odt::odt_smooth(&mut tm, &params, inside).iterations;
     }
     rep.odt_s = t3.elapsed().as_secs_f64();
-    // a local re-meshing keeps the old tetrahedra away from its region
+    // a re-meshing keeps the old tetrahedra among its kept nodes
     if let Some(old) = warm.map(|w| w.tets.as_slice()).filter(|t| !t.is_empty()) {
         let inside = |p: &P3| sys.carrier.contains_point(p);
         let sizes = (boundary.n_fixed(), n_keep);
@@ -814,8 +814,11 @@ fn connect_keeping(
                 movable: vec![false; n_keep],
                 tets: kept,
             };
+            if !keep::is_complex(&out.pos, &out.tets, boundary) {
+                return None;
+            }
             rep.kept_tets = Some(out.tets.len());
-            return keep::is_complex(&out.pos, &out.tets, boundary).then_some(out);
+            return Some(out);
         };
         let pos: Vec<P3> = cav.nodes.iter().map(|&k| tm.pos[k as usize]).collect();
         let t = std::time::Instant::now();
@@ -825,16 +828,26 @@ fn connect_keeping(
         // which the cavity cannot remove); false when none did
         let hand_over = |triangles: &[u32], kept: &mut Vec<[u32; 4]>| {
             let mut at: std::collections::HashSet<u32> = Default::default();
-            let mut balls = Vec::new();
+            let (mut centres, mut radii) = (Vec::new(), Vec::new());
             for &k in triangles {
                 let t = cav.boundary[k as usize].map(|v| cav.nodes[v as usize]);
                 at.extend(t);
                 let [a, b, c] = t.map(|v| tm.pos[v as usize]);
-                balls.push(crate::measure::triangle_circumball(&a, &b, &c));
+                let (centre, r) = crate::measure::triangle_circumball(&a, &b, &c);
+                centres.push(centre);
+                radii.push(r);
             }
+            // the balls bucketed by their largest radius (hundreds of
+            // balls against a hundred thousand kept tetrahedra)
+            let rmax = radii.iter().cloned().fold(f64::MIN_POSITIVE, f64::max);
+            let grid = crate::bubbles::grid::Grid::new(&centres, rmax);
             let in_ball = |v: u32| {
                 let p = tm.pos[v as usize];
-                balls.iter().any(|(c, r)| (p - c).norm() <= *r)
+                let mut hit = false;
+                grid.query(&p, rmax, |j| {
+                    hit |= (p - centres[j as usize]).norm() <= radii[j as usize];
+                });
+                hit
             };
             let before = kept.len();
             kept.retain(|t| !t.iter().any(|&v| at.contains(&v) || in_ball(v)));
