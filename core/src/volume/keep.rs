@@ -329,6 +329,79 @@ impl Cavity {
     }
 }
 
+/// Hands kept tetrahedra over to the cavity `cav` where its boundary
+/// triangles `triangles` (indices into `cav.boundary`) were not recovered:
+/// those at their corners, and those with a corner in their diametral balls
+/// (a kept node there blocks the triangle, and only the cavity's free
+/// nodes may be removed). `pos`: the volume's nodes. False when none was.
+pub(super) fn hand_over(
+    pos: &[P3],
+    cav: &Cavity,
+    triangles: &[u32],
+    kept: &mut Vec<[u32; 4]>,
+) -> bool {
+    let mut at: HashSet<u32> = HashSet::default();
+    let (mut centres, mut radii) = (Vec::new(), Vec::new());
+    for &k in triangles {
+        let t = cav.boundary[k as usize].map(|v| cav.nodes[v as usize]);
+        at.extend(t);
+        let [a, b, c] = t.map(|v| pos[v as usize]);
+        let (centre, r) = crate::measure::triangle_circumball(&a, &b, &c);
+        centres.push(centre);
+        radii.push(r);
+    }
+    // the balls bucketed by their largest radius (hundreds of balls
+    // against a hundred thousand kept tetrahedra)
+    let rmax = radii.iter().cloned().fold(f64::MIN_POSITIVE, f64::max);
+    let grid = crate::bubbles::grid::Grid::new(&centres, rmax);
+    let in_ball = |v: u32| {
+        let p = pos[v as usize];
+        let mut hit = false;
+        grid.query(&p, rmax, |j| {
+            hit |= (p - centres[j as usize]).norm() <= radii[j as usize];
+        });
+        hit
+    };
+    let before = kept.len();
+    kept.retain(|t| !t.iter().any(|&v| at.contains(&v) || in_ball(v)));
+    kept.len() < before
+}
+
+/// The volume's mesh from the kept tetrahedra `kept` (indices into `tm`'s
+/// nodes) and the cavity's mesh `c` (in the numbering of `cav`): `tm`'s
+/// first `n_keep` nodes (the fixed ones, which the kept tetrahedra and the
+/// cavity's boundary use), then the cavity's other nodes (free bubbles at
+/// their new positions, Steiner points).
+pub(super) fn merged(
+    tm: &TetMesh,
+    n_keep: usize,
+    kept: Vec<[u32; 4]>,
+    c: &TetMesh,
+    cav: &Cavity,
+) -> TetMesh {
+    let mut out = TetMesh {
+        pos: tm.pos[..n_keep].to_vec(),
+        d: tm.d[..n_keep].to_vec(),
+        movable: vec![false; n_keep],
+        tets: kept,
+    };
+    let map: Vec<u32> = (0..c.pos.len())
+        .map(|i| {
+            if i < cav.n_keep {
+                cav.nodes[i]
+            } else {
+                out.pos.push(c.pos[i]);
+                out.d.push(c.d[i]);
+                out.movable.push(true);
+                (out.pos.len() - 1) as u32
+            }
+        })
+        .collect();
+    out.tets
+        .extend(c.tets.iter().map(|t| t.map(|k| map[k as usize])));
+    out
+}
+
 /// The sliver pass's target for a cavity's last pass ([`raise_worst`]).
 pub(super) const CAVITY_TARGET: f64 = 0.6;
 

@@ -822,41 +822,10 @@ fn connect_keeping(
         };
         let pos: Vec<P3> = cav.nodes.iter().map(|&k| tm.pos[k as usize]).collect();
         let t = std::time::Instant::now();
-        // the kept tetrahedra at the corners of boundary triangles that were
-        // not recovered join the cavity, and those with a corner in their
-        // diametral balls (a kept node blocks a boundary triangle there,
-        // which the cavity cannot remove); false when none did
-        let hand_over = |triangles: &[u32], kept: &mut Vec<[u32; 4]>| {
-            let mut at: std::collections::HashSet<u32> = Default::default();
-            let (mut centres, mut radii) = (Vec::new(), Vec::new());
-            for &k in triangles {
-                let t = cav.boundary[k as usize].map(|v| cav.nodes[v as usize]);
-                at.extend(t);
-                let [a, b, c] = t.map(|v| tm.pos[v as usize]);
-                let (centre, r) = crate::measure::triangle_circumball(&a, &b, &c);
-                centres.push(centre);
-                radii.push(r);
-            }
-            // the balls bucketed by their largest radius (hundreds of
-            // balls against a hundred thousand kept tetrahedra)
-            let rmax = radii.iter().cloned().fold(f64::MIN_POSITIVE, f64::max);
-            let grid = crate::bubbles::grid::Grid::new(&centres, rmax);
-            let in_ball = |v: u32| {
-                let p = tm.pos[v as usize];
-                let mut hit = false;
-                grid.query(&p, rmax, |j| {
-                    hit |= (p - centres[j as usize]).norm() <= radii[j as usize];
-                });
-                hit
-            };
-            let before = kept.len();
-            kept.retain(|t| !t.iter().any(|&v| at.contains(&v) || in_ball(v)));
-            kept.len() < before
-        };
         let conn = match connect::connect_volume(&pos, cav.n_fixed, &cav.boundary) {
             Ok(conn) => conn,
             Err(connect::Connect3dError::NotConforming { triangles, .. }) => {
-                if !hand_over(&triangles, &mut kept) {
+                if !keep::hand_over(&tm.pos, &cav, &triangles, &mut kept) {
                     return None;
                 }
                 continue;
@@ -906,7 +875,7 @@ fn connect_keeping(
                     ..
                 })) => {
                     drop(grid);
-                    if !hand_over(&triangles, &mut kept) {
+                    if !keep::hand_over(&tm.pos, &cav, &triangles, &mut kept) {
                         return None;
                     }
                     continue;
@@ -923,27 +892,8 @@ fn connect_keeping(
             r.slivers.flips += s.flips;
         }
         refuse_flat(&c, r.steiner).ok()?;
-        let mut out = TetMesh {
-            pos: tm.pos[..n_keep].to_vec(),
-            d: tm.d[..n_keep].to_vec(),
-            movable: vec![false; n_keep],
-            tets: kept,
-        };
-        let map: Vec<u32> = (0..c.pos.len())
-            .map(|i| {
-                if i < cav.n_keep {
-                    cav.nodes[i]
-                } else {
-                    out.pos.push(c.pos[i]);
-                    out.d.push(c.d[i]);
-                    out.movable.push(true);
-                    (out.pos.len() - 1) as u32
-                }
-            })
-            .collect();
-        r.kept_tets = Some(out.tets.len());
-        out.tets
-            .extend(c.tets.iter().map(|t| t.map(|k| map[k as usize])));
+        r.kept_tets = Some(kept.len());
+        let out = keep::merged(tm, n_keep, kept, &c, &cav);
         if !keep::is_complex(&out.pos, &out.tets, boundary) {
             return None;
         }
