@@ -347,8 +347,17 @@ pub(super) fn hand_over(
         at.extend(t);
         let [a, b, c] = t.map(|v| pos[v as usize]);
         let (centre, r) = crate::measure::triangle_circumball(&a, &b, &c);
-        centres.push(centre);
-        radii.push(r);
+        // a needle's ball is huge and its blockers are near it: then the
+        // ball about its centroid through its farthest corner's distance
+        // doubled (so the grid below stays fine)
+        let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
+        if r <= 2.0 * longest {
+            centres.push(centre);
+            radii.push(r);
+        } else {
+            centres.push(P3::from((a.coords + b.coords + c.coords) / 3.0));
+            radii.push(longest);
+        }
     }
     // the balls bucketed by their largest radius (hundreds of balls
     // against a hundred thousand kept tetrahedra)
