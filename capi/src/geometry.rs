@@ -198,26 +198,7 @@ impl Curve for CallbackCurve {
 }
 
 /// The straight segment between two vertices (`bm_model_add_line`).
-#[derive(Debug)]
-pub(crate) struct Segment(pub P3, pub P3);
-
-impl Curve for Segment {
-    fn interval(&self) -> (f64, f64) {
-        (0.0, 1.0)
-    }
-    fn point(&self, t: f64) -> P3 {
-        self.0 + (self.1 - self.0) * t
-    }
-    fn d1(&self, _t: f64) -> V3 {
-        self.1 - self.0
-    }
-    fn d2(&self, _t: f64) -> V3 {
-        V3::zeros()
-    }
-    fn approx_length(&self) -> f64 {
-        (self.1 - self.0).norm()
-    }
-}
+pub(crate) use bubblemesh_core::geom::Segment;
 
 /// A surface answered by host callbacks.
 pub(crate) struct CallbackSurface {

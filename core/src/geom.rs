@@ -158,6 +158,29 @@ pub trait VolumeGeometry: Send + Sync + std::fmt::Debug {
     }
 }
 
+/// The straight segment from `.0` to `.1`, t in [0, 1] (a host's line
+/// through the C ABI, and the test models' edges).
+#[derive(Clone, Copy, Debug)]
+pub struct Segment(pub P3, pub P3);
+
+impl Curve for Segment {
+    fn interval(&self) -> (f64, f64) {
+        (0.0, 1.0)
+    }
+    fn point(&self, t: f64) -> P3 {
+        self.0 + (self.1 - self.0) * t
+    }
+    fn d1(&self, _t: f64) -> V3 {
+        self.1 - self.0
+    }
+    fn d2(&self, _t: f64) -> V3 {
+        V3::zeros()
+    }
+    fn approx_length(&self) -> f64 {
+        (self.1 - self.0).norm()
+    }
+}
+
 /// The plane S(u,v) = origin + u·e1 + v·e2 with orthonormal e1, e2.
 ///
 /// 2D domains use the plane z = 0 with (u,v) = (x,y).

@@ -1,6 +1,6 @@
 //! Small bubble systems for the unit tests of the bubble physics: carriers
 //! on the unit square of the xy plane and on the x axis, and lattices to
-//! fill them with; and a straight curve for tests that build a model.
+//! fill them with; and the straight curve for tests that build a model.
 
 use crate::bubbles::constraint::Carrier;
 use crate::bubbles::system::System;
@@ -8,24 +8,7 @@ use crate::geom::{P3, V3};
 use crate::model::EntityRef;
 use crate::spacing::Constant;
 
-/// The straight curve from `.0` to `.1`, t in [0, 1].
-#[derive(Debug)]
-pub(crate) struct Segment(pub P3, pub P3);
-
-impl crate::geom::Curve for Segment {
-    fn interval(&self) -> (f64, f64) {
-        (0.0, 1.0)
-    }
-    fn point(&self, t: f64) -> P3 {
-        self.0 + (self.1 - self.0) * t
-    }
-    fn d1(&self, _t: f64) -> V3 {
-        self.1 - self.0
-    }
-    fn d2(&self, _t: f64) -> V3 {
-        V3::zeros()
-    }
-}
+pub(crate) use crate::geom::Segment;
 
 /// Bubbles on the unit square [0,1]² of the xy plane; (u,v) = (x,y).
 pub(crate) struct Square;

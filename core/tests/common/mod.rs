@@ -7,24 +7,7 @@ use bubblemesh_core::geom::{Curve, Plane, P3, V3};
 use bubblemesh_core::model::{Edge, EdgeUse, Face, Loop, Model, Vertex};
 use bubblemesh_core::Mesh;
 
-/// The segment a → b, t in [0, 1].
-#[derive(Debug)]
-pub struct Segment(pub P3, pub P3);
-
-impl Curve for Segment {
-    fn interval(&self) -> (f64, f64) {
-        (0.0, 1.0)
-    }
-    fn point(&self, t: f64) -> P3 {
-        self.0 + (self.1 - self.0) * t
-    }
-    fn d1(&self, _t: f64) -> V3 {
-        self.1 - self.0
-    }
-    fn d2(&self, _t: f64) -> V3 {
-        V3::zeros()
-    }
-}
+pub use bubblemesh_core::geom::Segment;
 
 /// The circle of centre c and radius r in the xy plane, t = angle.
 #[derive(Debug)]
