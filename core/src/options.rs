@@ -71,8 +71,12 @@ pub enum Event<'a> {
     },
 }
 
-/// An observer of a run: called on the meshing thread for each [`Event`].
-/// A panic in it unwinds out of [`crate::mesh_model`].
+/// An observer of a run, told of each [`Event`]: on the meshing thread,
+/// except that with [`RelaxSettings::parallel`](crate::RelaxSettings::parallel)
+/// faces are meshed side by side and their `Stage1`, `Step` and `Pass`
+/// events come from rayon's threads, interleaved between faces; `Done`
+/// events always come from the meshing thread, in entity order. A panic in
+/// it unwinds out of [`crate::mesh_model`].
 pub type ObserverFn = Arc<dyn Fn(&Event<'_>) + Send + Sync>;
 
 impl Options {
@@ -217,4 +221,15 @@ pub struct Timings {
     pub lattice_s: f64,
     /// The whole run, refinement rounds included.
     pub total_s: f64,
+}
+
+impl Timings {
+    /// Adds `other`'s phases (not its total) to these.
+    pub(crate) fn add(&mut self, other: &Timings) {
+        self.edges_s += other.edges_s;
+        self.stage1_s += other.stage1_s;
+        self.stage2_s += other.stage2_s;
+        self.connect_s += other.connect_s;
+        self.lattice_s += other.lattice_s;
+    }
 }

@@ -79,11 +79,14 @@ pub struct RelaxSettings {
     /// k0·Σd² over the last 25 steps ([`PLATEAU`], [`PLATEAU_BOUNDARY`]).
     pub plateau: f64,
     /// Compute the forces and moves of a step on rayon's thread pool (the
-    /// caller's pool: `ThreadPool::install`, or the global one). The result
-    /// is identical to the serial step: every bubble's force is taken at the
-    /// start of the step (eq. 4.4.6) and its move depends on itself alone.
-    /// Off by default: the geometry and spacing are then only ever asked
-    /// from the calling thread (the C ABI promises its hosts that).
+    /// caller's pool: `ThreadPool::install`, or the global one), and mesh
+    /// the faces side by side there (thesis §3.2.3: faces are independent
+    /// once their edges are meshed). The result is identical to the serial
+    /// run: every bubble's force is taken at the start of the step (eq.
+    /// 4.4.6) and its move depends on itself alone, and each face reads only
+    /// its edges' mesh and is appended in face order. Off by default: the
+    /// geometry, the spacing and the observer are then only ever asked from
+    /// the calling thread (the C ABI promises its hosts that).
     pub parallel: bool,
 }
 

@@ -240,11 +240,11 @@ pub(crate) fn replay(
     spacing_key: &[u64],
     mesh: &mut Mesh,
 ) -> Option<FaceReport> {
-    let memo = memos.get(fi)?.as_ref()?;
-    let ids = boundary_ids(at.model, fi, at.edge_nodes);
-    if memo.key != key(&ids, mesh, at.node_d, spacing_key) || !memo.reach.holds(at.refinement) {
+    if !replays(memos, at, fi, spacing_key, mesh) {
         return None;
     }
+    let memo = memos.get(fi)?.as_ref()?;
+    let ids = boundary_ids(at.model, fi, at.edge_nodes);
     let first = mesh.nodes.len() as u32;
     mesh.nodes.extend_from_slice(&memo.nodes);
     let fe = EntityRef::new(2, fi as u32);
@@ -257,6 +257,21 @@ pub(crate) fn replay(
             entity: fe,
         }));
     Some(memo.report.clone())
+}
+
+/// Whether [`replay`] would replay face `fi` (it only reads `mesh`).
+pub(crate) fn replays(
+    memos: &FaceMemos,
+    at: &Attempted<'_>,
+    fi: usize,
+    spacing_key: &[u64],
+    mesh: &Mesh,
+) -> bool {
+    let Some(memo) = memos.get(fi).and_then(Option::as_ref) else {
+        return false;
+    };
+    let ids = boundary_ids(at.model, fi, at.edge_nodes);
+    memo.key == key(&ids, mesh, at.node_d, spacing_key) && memo.reach.holds(at.refinement)
 }
 
 /// Remembers what meshing face `fi` added to `mesh` (nodes from `n0`,

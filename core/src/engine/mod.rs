@@ -422,6 +422,17 @@ struct Replay<'m> {
     edge_cap_state: &'m [u64],
 }
 
+/// What meshing a face gave, before it is appended to the mesh.
+enum FaceWork {
+    /// Its remembered mesh replays ([`memo::replays`]).
+    Replay,
+    /// Meshed: its nodes and triangles or why not, and the time it took.
+    Meshed(
+        Box<Result<(FaceReport, crate::face::FaceOut), MeshError>>,
+        crate::options::Timings,
+    ),
+}
+
 /// The state of one attempt: what is meshed so far, dimension by
 /// dimension.
 struct Attempt<'a> {
@@ -575,62 +586,108 @@ impl Attempt<'_> {
     /// error names them all.
     fn faces(&mut self, edge_nodes: &[Vec<u32>], memory: Replay<'_>) -> Result<(), Box<Failed>> {
         let (model, spacing, opts) = (self.model, self.spacing, self.opts);
+        let node_d = &self.node_d;
         let mut failed: Vec<(u32, MeshError)> = Vec::new();
-        for fi in 0..model.faces.len() {
+        // what the spacing on a face depends on besides its boundary
+        let spacing_key = |fi: usize| {
             let e = EntityRef::new(2, fi as u32);
-            // what the spacing on the face depends on besides its boundary
-            let spacing_key = [
+            [
                 memory.refinement.face_level(fi) as u64,
                 memory.cap_state.get(fi).copied().unwrap_or(0),
                 spacing.constant_on(e).map_or(u64::MAX, f64::to_bits),
                 spacing.constant().map_or(u64::MAX, f64::to_bits),
-            ];
+            ]
+        };
+        // a face's outcome from the edges' mesh alone (faces only read the
+        // mesh, so they can be meshed side by side)
+        let work = |fi: usize, mesh: &Mesh, memos: &memo::FaceMemos| -> FaceWork {
             let at = memo::Attempted {
                 model,
                 refinement: memory.refinement,
                 edge_nodes,
-                node_d: &self.node_d,
+                node_d,
             };
-            let replayed = opts
-                .replay_unchanged
-                .then(|| memo::replay(memory.memos, &at, fi, &spacing_key, &mut self.mesh))
-                .flatten();
-            if let Some(fr) = replayed {
-                self.report.faces.push(fr);
-                self.report.faces_replayed += 1;
-                opts.tell(&Event::Done {
-                    entity: e,
-                    mesh: &self.mesh,
-                });
-                continue;
+            if opts.replay_unchanged && memo::replays(memos, &at, fi, &spacing_key(fi), mesh) {
+                return FaceWork::Replay;
             }
-            let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
-            let mut face = |grow: bool| {
-                let inputs = FaceInputs {
-                    model,
-                    spacing,
-                    opts,
-                    edge_nodes,
-                    node_d: &self.node_d,
-                };
-                mesh_face(&inputs, fi, &mut self.mesh, &mut self.report.timings, grow)
+            let mut timings = crate::options::Timings::default();
+            let inputs = FaceInputs {
+                model,
+                spacing,
+                opts,
+                edge_nodes,
+                node_d,
             };
+            let mut face = |grow: bool| mesh_face(&inputs, fi, mesh, &mut timings, grow);
             // a grown start that cannot be connected (measured: the dome
             // sheet's pole cap at size 1.5, "constraint segments cross") is
-            // retried from the quadtree's start; a failed connection leaves
-            // the mesh untouched
-            match match face(true) {
+            // retried from the quadtree's start
+            let r = match face(true) {
                 Err(MeshError::Connect(_)) if !opts.fast => face(false),
                 r => r,
-            } {
-                Ok(fr) => {
-                    let at = memo::Attempted {
-                        model,
-                        refinement: memory.refinement,
-                        edge_nodes,
-                        node_d: &self.node_d,
-                    };
-                    memo::record(memory.memos, &at, fi, &spacing_key, &self.mesh, before, &fr);
+            };
+            FaceWork::Meshed(Box::new(r), timings)
+        };
+        // side by side where the caller allows geometry and spacing to be
+        // asked from rayon's threads; the same mesh either way, since each
+        // face's outcome is appended in face order below
+        let n = model.faces.len();
+        let mut ready: Vec<Option<FaceWork>> = if opts.relax.parallel && n > 1 {
+            use rayon::prelude::*;
+            let (mesh, memos) = (&self.mesh, &*memory.memos);
+            (0..n)
+                .into_par_iter()
+                .map(|fi| Some(work(fi, mesh, memos)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        for fi in 0..n {
+            let e = EntityRef::new(2, fi as u32);
+            let outcome = match ready.get_mut(fi).and_then(Option::take) {
+                Some(w) => w,
+                None => work(fi, &self.mesh, memory.memos),
+            };
+            let at = memo::Attempted {
+                model,
+                refinement: memory.refinement,
+                edge_nodes,
+                node_d,
+            };
+            let result = match outcome {
+                FaceWork::Replay => {
+                    match memo::replay(memory.memos, &at, fi, &spacing_key(fi), &mut self.mesh) {
+                        Some(fr) => {
+                            self.report.faces.push(fr);
+                            self.report.faces_replayed += 1;
+                            opts.tell(&Event::Done {
+                                entity: e,
+                                mesh: &self.mesh,
+                            });
+                            continue;
+                        }
+                        // `replays` said yes on the same inputs
+                        None => unreachable!("a face memo that replays did not"),
+                    }
+                }
+                FaceWork::Meshed(r, timings) => {
+                    self.report.timings.add(&timings);
+                    *r
+                }
+            };
+            match result {
+                Ok((fr, out)) => {
+                    let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
+                    out.append_to(&mut self.mesh, e);
+                    memo::record(
+                        memory.memos,
+                        &at,
+                        fi,
+                        &spacing_key(fi),
+                        &self.mesh,
+                        before,
+                        &fr,
+                    );
                     self.report.faces.push(fr);
                     opts.tell(&Event::Done {
                         entity: e,

@@ -197,14 +197,16 @@ struct Boundary {
 /// curved faces a grown crystal), stage 2 (relaxation), connection (a
 /// constrained Delaunay triangulation), the 2D improvement, on a graded
 /// planar face the conformal-lattice restart, and the new nodes and
-/// triangles into `mesh`. `grow` allows stage 1's grown start.
+/// triangles ([`FaceOut`], for [`FaceOut::append_to`] the mesh). `mesh`
+/// holds the nodes of the face's edges and vertices; it is only read, so
+/// faces can be meshed side by side. `grow` allows stage 1's grown start.
 pub(crate) fn mesh_face(
     inputs: &FaceInputs<'_>,
     fi: usize,
-    mesh: &mut Mesh,
+    mesh: &Mesh,
     timings: &mut Timings,
     grow: bool,
-) -> Result<FaceReport, MeshError> {
+) -> Result<(FaceReport, FaceOut), MeshError> {
     let job = FaceJob::new(inputs, fi, grow)?;
     let t1 = Instant::now();
     let mut boundary = job.boundary_bubbles(mesh)?;
@@ -292,7 +294,8 @@ pub(crate) fn mesh_face(
     }
     let lattice_s = t_lattice.elapsed().as_secs_f64();
     timings.lattice_s += lattice_s;
-    fr.bubbles = job.emit(&sys, &tris, mesh);
+    let out = job.emit(&sys, &tris);
+    fr.bubbles = out.nodes.len() - out.kept;
     fr.triangles = tris.len();
     if tris.is_empty() {
         return Err(MeshError::Invalid(
@@ -301,7 +304,44 @@ pub(crate) fn mesh_face(
         ));
     }
     timings.connect_s += t3.elapsed().as_secs_f64() - lattice_s;
-    Ok(fr)
+    Ok((fr, out))
+}
+
+/// A face's new nodes and triangles, to be appended to the mesh.
+#[derive(Debug)]
+pub(crate) struct FaceOut {
+    /// The new nodes, in order: a warm start's kept boundary bubbles
+    /// (`kept` of them), then the free bubbles.
+    nodes: Vec<Node>,
+    /// How many of `nodes` are kept bubbles of a warm start.
+    kept: usize,
+    /// The triangles; a corner below [`FaceOut::OWN`] is a node of the
+    /// mesh already, else `OWN + k` is `nodes[k]`.
+    triangles: Vec<[u32; 3]>,
+}
+
+impl FaceOut {
+    /// Corners at and above this are the face's own new nodes.
+    const OWN: u32 = 1 << 31;
+
+    /// Appends the nodes and triangles to `mesh`, numbering the new nodes
+    /// from its current end: the same mesh as if the face had been meshed
+    /// into it directly.
+    pub(crate) fn append_to(self, mesh: &mut Mesh, fe: EntityRef) {
+        let first = mesh.nodes.len() as u32;
+        mesh.nodes.extend(self.nodes);
+        mesh.triangles
+            .extend(self.triangles.into_iter().map(|t| Element {
+                nodes: t.map(|c| {
+                    if c >= Self::OWN {
+                        first + (c - Self::OWN)
+                    } else {
+                        c
+                    }
+                }),
+                entity: fe,
+            }));
+    }
 }
 
 impl<'a> FaceJob<'a> {
@@ -758,11 +798,11 @@ impl<'a> FaceJob<'a> {
             && isometric(self.surface, lo, hi)
     }
 
-    /// The free bubbles become nodes and the triangles elements of `mesh`;
-    /// returns the number of new nodes. A bubble the connection left without
-    /// a triangle (it sat within half a spacing of another near a singular
-    /// point) is dropped rather than left as an unreferenced node.
-    fn emit(&self, sys: &System<'a, OnFace<'a>>, tris: &[[usize; 3]], mesh: &mut Mesh) -> usize {
+    /// The free bubbles become nodes and the triangles elements
+    /// ([`FaceOut`]). A bubble the connection left without a triangle (it
+    /// sat within half a spacing of another near a singular point) is
+    /// dropped rather than left as an unreferenced node.
+    fn emit(&self, sys: &System<'a, OnFace<'a>>, tris: &[[usize; 3]]) -> FaceOut {
         let nf = sys.n_fixed;
         let fe = self.fe;
         let mut referenced = vec![false; sys.n()];
@@ -772,27 +812,23 @@ impl<'a> FaceJob<'a> {
             }
         }
         let mut node_of = vec![u32::MAX; sys.n()];
+        let mut nodes: Vec<Node> = Vec::new();
+        let mut own = |i: usize, nodes: &mut Vec<Node>| {
+            node_of[i] = FaceOut::OWN + nodes.len() as u32;
+            nodes.push(Node {
+                pos: sys.pos[i],
+                entity: fe,
+                params: sys.params[i],
+            });
+        };
         // kept bubbles of a warm start become nodes at their old
         // coordinates (see `warm`)
-        for i in 0..nf {
-            if sys.fixed_ids[i] == warm::KEPT && referenced[i] {
-                node_of[i] = mesh.nodes.len() as u32;
-                mesh.nodes.push(Node {
-                    pos: sys.pos[i],
-                    entity: fe,
-                    params: sys.params[i],
-                });
-            }
+        for i in (0..nf).filter(|&i| sys.fixed_ids[i] == warm::KEPT && referenced[i]) {
+            own(i, &mut nodes);
         }
-        for i in nf..sys.n() {
-            if referenced[i] {
-                node_of[i] = mesh.nodes.len() as u32;
-                mesh.nodes.push(Node {
-                    pos: sys.pos[i],
-                    entity: fe,
-                    params: sys.params[i],
-                });
-            }
+        let kept = nodes.len();
+        for i in (nf..sys.n()).filter(|&i| referenced[i]) {
+            own(i, &mut nodes);
         }
         let global = |l: usize| -> u32 {
             if l < nf && sys.fixed_ids[l] != warm::KEPT {
@@ -801,13 +837,14 @@ impl<'a> FaceJob<'a> {
                 node_of[l]
             }
         };
-        for t in tris {
-            mesh.triangles.push(Element {
-                nodes: [global(t[0]), global(t[1]), global(t[2])],
-                entity: fe,
-            });
+        FaceOut {
+            nodes,
+            kept,
+            triangles: tris
+                .iter()
+                .map(|t| [global(t[0]), global(t[1]), global(t[2])])
+                .collect(),
         }
-        (nf..sys.n()).filter(|&i| referenced[i]).count()
     }
 }
 
