@@ -422,15 +422,18 @@ struct Replay<'m> {
     edge_cap_state: &'m [u64],
 }
 
-/// What meshing a face gave, before it is appended to the mesh.
+/// A face meshed: its nodes and triangles or why not, and the time it took.
+type Meshed = (
+    Box<Result<(FaceReport, crate::face::FaceOut), MeshError>>,
+    crate::options::Timings,
+);
+
+/// What a face gave, before it is appended to the mesh.
 enum FaceWork {
     /// Its remembered mesh replays ([`memo::replays`]).
     Replay,
-    /// Meshed: its nodes and triangles or why not, and the time it took.
-    Meshed(
-        Box<Result<(FaceReport, crate::face::FaceOut), MeshError>>,
-        crate::options::Timings,
-    ),
+    /// Meshed.
+    Meshed(Meshed),
 }
 
 /// The state of one attempt: what is meshed so far, dimension by
@@ -598,18 +601,9 @@ impl Attempt<'_> {
                 spacing.constant().map_or(u64::MAX, f64::to_bits),
             ]
         };
-        // a face's outcome from the edges' mesh alone (faces only read the
+        // a face meshed from the edges' mesh alone (faces only read the
         // mesh, so they can be meshed side by side)
-        let work = |fi: usize, mesh: &Mesh, memos: &memo::FaceMemos| -> FaceWork {
-            let at = memo::Attempted {
-                model,
-                refinement: memory.refinement,
-                edge_nodes,
-                node_d,
-            };
-            if opts.replay_unchanged && memo::replays(memos, &at, fi, &spacing_key(fi), mesh) {
-                return FaceWork::Replay;
-            }
+        let mesh_one = |fi: usize, mesh: &Mesh| -> Meshed {
             let mut timings = crate::options::Timings::default();
             let inputs = FaceInputs {
                 model,
@@ -626,7 +620,20 @@ impl Attempt<'_> {
                 Err(MeshError::Connect(_)) if !opts.fast => face(false),
                 r => r,
             };
-            FaceWork::Meshed(Box::new(r), timings)
+            (Box::new(r), timings)
+        };
+        let work = |fi: usize, mesh: &Mesh, memos: &memo::FaceMemos| -> FaceWork {
+            let at = memo::Attempted {
+                model,
+                refinement: memory.refinement,
+                edge_nodes,
+                node_d,
+            };
+            if opts.replay_unchanged && memo::replays(memos, &at, fi, &spacing_key(fi), mesh) {
+                FaceWork::Replay
+            } else {
+                FaceWork::Meshed(mesh_one(fi, mesh))
+            }
         };
         // side by side where the caller allows geometry and spacing to be
         // asked from rayon's threads; the same mesh either way, since each
@@ -654,7 +661,7 @@ impl Attempt<'_> {
                 edge_nodes,
                 node_d,
             };
-            let result = match outcome {
+            let (result, timings) = match outcome {
                 FaceWork::Replay => {
                     match memo::replay(memory.memos, &at, fi, &spacing_key(fi), &mut self.mesh) {
                         Some(fr) => {
@@ -666,16 +673,15 @@ impl Attempt<'_> {
                             });
                             continue;
                         }
-                        // `replays` said yes on the same inputs
-                        None => unreachable!("a face memo that replays did not"),
+                        // `replays` said yes on the same inputs, so this
+                        // is not met; meshing the face is right anyway
+                        None => mesh_one(fi, &self.mesh),
                     }
                 }
-                FaceWork::Meshed(r, timings) => {
-                    self.report.timings.add(&timings);
-                    *r
-                }
+                FaceWork::Meshed(m) => m,
             };
-            match result {
+            self.report.timings.add(&timings);
+            match *result {
                 Ok((fr, out)) => {
                     let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
                     out.append_to(&mut self.mesh, e);
