@@ -205,7 +205,10 @@ impl std::fmt::Debug for Options {
     }
 }
 
-/// Wall-clock seconds per phase; each stage adds its own.
+/// Wall-clock seconds per phase; each stage adds its own. Faces meshed
+/// side by side ([`RelaxSettings::parallel`](crate::RelaxSettings::parallel))
+/// add each face's own time, so on several threads the phases can sum past
+/// `total_s`.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct Timings {
     /// Meshing the edges (both stages).

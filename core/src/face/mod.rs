@@ -321,7 +321,8 @@ pub(crate) struct FaceOut {
 }
 
 impl FaceOut {
-    /// Corners at and above this are the face's own new nodes.
+    /// Corners at and above this are the face's own new nodes (a mesh's
+    /// node ids stay below it: 2³¹ nodes would be some 100 GB).
     const OWN: u32 = 1 << 31;
 
     /// Appends the nodes and triangles to `mesh`, numbering the new nodes
