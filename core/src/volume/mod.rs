@@ -122,25 +122,22 @@ pub const BCC_FLOOR_RR: f64 = 0.5;
 /// See [`BCC_FLOOR_RR`]: the smallest and largest dihedral angle, degrees.
 pub const BCC_FLOOR_DIHEDRAL: (f64, f64) = (25.0, 140.0);
 
-/// ODT iterations ([`tet::odt`]) of the first round's Steiner points once
-/// they are connected, when they are at least a quarter of the free nodes
-/// (thin parts, where the lattice fits few bubbles and the Steiner points,
-/// placed 0.29·d off slivers, are most of the interior); smoothed (they
-/// alone move, the other nodes near them held), they are connected again
-/// before the sliver pass.
+/// ODT iterations ([`tet::odt`]) of the first round's Steiner points
+/// before they are connected, when they are at least a quarter of the free
+/// nodes (thin parts, where the lattice fits few bubbles and the Steiner
+/// points, placed 0.29·d off slivers, are most of the interior). They alone
+/// move, the Delaunay tetrahedralizations taken around them.
 ///
 /// Measured on the 27 realstep solids at diag/20 (one thread): 68.8 s →
-/// 47.7 s in all, mean radius ratio up on every solid where it runs
-/// (as_0083 0.730 → 0.820 and 7.6 → 3.0 s, as_0049 0.746 → 0.788, as_0050
-/// 0.695 → 0.757, as_0053 0.724 → 0.781). Before, the six Steiner rounds'
-/// re-connections and sliver passes did this smoothing slowly (as_0083:
-/// mean 0.633 after the first round, 0.705 after the sixth). Smoothing
-/// every free node instead gave the same means but cost a tetrahedralization
-/// of the whole volume per iteration (fixtures/step/b3d_bottle at size 1:
-/// sliver pass 1.9 → 3.6 s) and left its worst tetrahedron at radius ratio
-/// 0.0015; the new points alone, 0.37. 5 iterations gave less (as_0083
-/// 0.792), 20 more at a higher cost (0.842; as_40mm_capot 16 s); after
-/// every round, as_0042's smallest dihedral angle fell below Gmsh's.
+/// 49.2 s in all, mean radius ratio up on every solid where it runs
+/// (as_0083 0.730 → 0.820 and 7.6 → 3.0 s, as_0050 0.695 → 0.757, as_0053
+/// 0.724 → 0.783). Before, the six Steiner rounds' re-connections and
+/// sliver passes did this smoothing slowly (as_0083: mean 0.633 after the
+/// first round, 0.705 after the sixth). Smoothing every free node instead
+/// cost a tetrahedralization of the whole volume per iteration and left
+/// fixtures/step/b3d_bottle's worst tetrahedron at radius ratio 0.0015 (the
+/// new points alone: 0.37); 5 iterations gave less (as_0083 0.792), 20 more
+/// at a higher cost (as_40mm_capot 16 s). docs/decisions.md has the rest.
 pub const STEINER_ODT_ITERATIONS: usize = 10;
 
 /// Whether tetrahedron `t` is below the BCC floor ([`BCC_FLOOR_RR`]).
@@ -1046,9 +1043,8 @@ fn connect_first(
 
 /// Sliver removal, then up to [`tet::steiner::STEINER_ROUNDS`] rounds of
 /// Steiner points for the slivers among fixed nodes, each followed by a
-/// re-connection and another sliver pass (the first, where its points are
-/// many, by [`STEINER_ODT_ITERATIONS`] of ODT smoothing and a
-/// re-connection before). `first_qs`: the objectives of
+/// re-connection and another sliver pass (the first round's points, where
+/// they are many, smoothed before: [`STEINER_ODT_ITERATIONS`]). `first_qs`: the objectives of
 /// the tetrahedra, if the caller has them. The first `n_keep` nodes keep
 /// their indices and never move, except, with `release`, the kept bubbles
 /// of a warm start at the corners of a sliver among fixed nodes.
@@ -1126,7 +1122,26 @@ fn remove_slivers(
         let extra_n = extra.len();
         // the kept nodes, then the new ones; fixed nodes keep their
         // indices (the boundary triangles refer to them)
-        let (pos2, d2) = with_points(tm, n_keep, extra);
+        let (mut pos2, mut d2) = with_points(tm, n_keep, extra);
+        let first_new = pos2.len() - extra_n;
+        if round == 0 && 4 * extra_n >= pos2.len() - n_keep {
+            // the new points alone move, the Delaunay tetrahedralizations
+            // taken around them (the smoothing connects the nodes afresh
+            // each iteration, so it needs no tetrahedra of its own)
+            let mut pre = TetMesh {
+                movable: (0..pos2.len()).map(|i| i >= first_new).collect(),
+                pos: pos2,
+                d: d2,
+                tets: Vec::new(),
+            };
+            let odt = tet::odt::OdtParams {
+                iterations: STEINER_ODT_ITERATIONS,
+                local: true,
+                ..Default::default()
+            };
+            tet::odt::odt_smooth(&mut pre, &odt, &inside);
+            (pos2, d2) = (pre.pos, pre.d);
+        }
         let conn = connect::connect_volume(&pos2, n_fixed, local).map_err(failed)?;
         rep.recovery_removed += conn.removed;
         *tm = TetMesh {
@@ -1137,25 +1152,6 @@ fn remove_slivers(
             pos: pos2,
             d: d2,
         };
-        if round == 0 && 4 * extra_n >= tm.movable.iter().filter(|&&m| m).count() {
-            // the new points alone move (they are the last nodes), the
-            // Delaunay tetrahedralizations taken around them
-            let odt = tet::odt::OdtParams {
-                iterations: STEINER_ODT_ITERATIONS,
-                local: true,
-                ..Default::default()
-            };
-            let free = tm.movable.clone();
-            let first_new = tm.pos.len() - extra_n;
-            for m in &mut tm.movable[..first_new] {
-                *m = false;
-            }
-            tet::odt::odt_smooth(tm, &odt, &inside);
-            let conn = connect::connect_volume(&tm.pos, n_fixed, local).map_err(failed)?;
-            rep.recovery_removed += conn.removed;
-            tm.movable = free.iter().zip(&conn.kept).map(|(&m, &k)| m && k).collect();
-            tm.tets = conn.tets;
-        }
         let s = remove_slivers(tm, &params);
         rep.slivers.moves += s.moves;
         rep.slivers.flips += s.flips;
