@@ -663,7 +663,7 @@ impl Attempt<'_> {
             };
             let (result, timings) = match outcome {
                 FaceWork::Replay => {
-                    match memo::replay(memory.memos, &at, fi, &spacing_key(fi), &mut self.mesh) {
+                    match memo::replay(memory.memos, &at, fi, &mut self.mesh) {
                         Some(fr) => {
                             self.report.faces.push(fr);
                             self.report.faces_replayed += 1;
@@ -673,8 +673,8 @@ impl Attempt<'_> {
                             });
                             continue;
                         }
-                        // `replays` said yes on the same inputs, so this
-                        // is not met; meshing the face is right anyway
+                        // `replays` found its memo, so this is not met;
+                        // meshing the face is right anyway
                         None => mesh_one(fi, &self.mesh),
                     }
                 }
