@@ -110,16 +110,29 @@ pub fn improve<C: Carrier>(
     constraints: &[[usize; 2]],
     rounds: usize,
 ) -> Result<(), MeshError> {
+    improve_where(sys, tris, constraints, rounds, None)
+}
+
+/// [`improve`] moving only the bubbles `movable` marks (all with `None`):
+/// a few bubbles added to an improved mesh are settled among their
+/// neighbours without running the passes over the whole face again.
+pub fn improve_where<C: Carrier>(
+    sys: &mut System<'_, C>,
+    tris: &mut [[usize; 3]],
+    constraints: &[[usize; 2]],
+    rounds: usize,
+    movable: Option<&[bool]>,
+) -> Result<(), MeshError> {
     let fixed = undirected(constraints);
     for _ in 0..rounds {
-        let moved = relax_edges(sys, tris, 10)?;
+        let moved = relax_edges(sys, tris, 10, movable)?;
         if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
             break;
         }
     }
     for (lift, below) in [(Lift::Worst, PRM.lift_q), (Lift::Mean, PRM.mean_q)] {
         for _ in 0..rounds {
-            let moved = lift_bubbles(sys, tris, lift, below, 0.0)?;
+            let moved = lift_bubbles(sys, tris, lift, below, 0.0, movable)?;
             if moved.is_empty() || delaunay_flips(sys, tris, &fixed, &moved) == 0 {
                 break;
             }
@@ -148,7 +161,7 @@ pub fn lift_mean<C: Carrier>(
 ) -> Result<(), MeshError> {
     let fixed = undirected(constraints);
     for _ in 0..rounds {
-        let moved = lift_bubbles(sys, tris, Lift::Mean, below, PRM.band_weight)?;
+        let moved = lift_bubbles(sys, tris, Lift::Mean, below, PRM.band_weight, None)?;
         if moved.is_empty() {
             break;
         }
@@ -355,6 +368,7 @@ fn lift_bubbles<C: Carrier>(
     lift: Lift,
     below: f64,
     band: f64,
+    movable: Option<&[bool]>,
 ) -> Result<Vec<usize>, MeshError> {
     let n = sys.n();
     let nf = sys.n_fixed;
@@ -372,7 +386,7 @@ fn lift_bubbles<C: Carrier>(
     let (ln_lo, ln_hi) = (PRM.band_lo.ln(), PRM.band_hi.ln());
     let mut moved = Vec::new();
     for i in nf..n {
-        if !poor[i] {
+        if !poor[i] || movable.is_some_and(|m| !m[i]) {
             continue;
         }
         let mut floor = f64::NEG_INFINITY;
@@ -466,6 +480,7 @@ fn relax_edges<C: Carrier>(
     sys: &mut System<'_, C>,
     tris: &[[usize; 3]],
     iters: usize,
+    movable: Option<&[bool]>,
 ) -> Result<Vec<usize>, MeshError> {
     let n = sys.n();
     let nf = sys.n_fixed;
@@ -507,7 +522,9 @@ fn relax_edges<C: Carrier>(
         }
         front = next;
     }
-    let movers: Vec<usize> = (nf..n).filter(|&i| active[i]).collect();
+    let movers: Vec<usize> = (nf..n)
+        .filter(|&i| active[i] && movable.is_none_or(|m| m[i]))
+        .collect();
     let nbrs: Vec<Vec<usize>> = movers.iter().map(|&i| neighbours(i)).collect();
     for _ in 0..iters {
         for (m, &i) in movers.iter().enumerate() {

@@ -102,6 +102,10 @@ pub struct FaceReport {
     pub stage1_bubbles: usize,
     /// Free bubbles at the end.
     pub bubbles: usize,
+    /// Of `bubbles`, those added after stage 2 as the middle row of a
+    /// strip ([`placement::strip_rows`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub strip_row_bubbles: usize,
     pub triangles: usize,
     /// Stage-2 statistics and energy history (absent with `--fast`).
     pub relax: Option<RelaxStats>,
@@ -118,6 +122,10 @@ pub struct FaceReport {
     /// error of the (u,v) connection at this spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub connected_in_plane: Option<String>,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// The parameter box `(lo, hi)` of a surface (its `domain()` is
@@ -277,10 +285,10 @@ pub(crate) fn mesh_face(
     }
 
     let t3 = Instant::now();
-    let (mut tris, in_plane) = job.connect(&sys, &boundary)?;
+    let (mut tris, in_plane) = job.connect_and_improve(&mut sys, &boundary, None)?;
     fr.connected_in_plane = in_plane;
-    if !inputs.opts.fast && PRM.improve_rounds > 0 {
-        improve::improve(&mut sys, &mut tris, &boundary.segments, PRM.improve_rounds)?;
+    if !inputs.opts.fast {
+        job.strip_rows(&mut sys, &boundary, &mut tris, &mut fr)?;
     }
     let t_lattice = Instant::now();
     // a warm start keeps its packing (the old one came from the lattice)
@@ -305,6 +313,63 @@ pub(crate) fn mesh_face(
     }
     timings.connect_s += t3.elapsed().as_secs_f64() - lattice_s;
     Ok((fr, out))
+}
+
+/// The bubbles of a face's system (positions, parameters, velocities,
+/// spacings), to try another connection and put them back.
+struct Packing {
+    pos: Vec<P3>,
+    params: Vec<[f64; 2]>,
+    vel: Vec<V3>,
+    d: Vec<f64>,
+}
+
+impl Packing {
+    fn of(sys: &System<'_, OnFace<'_>>) -> Self {
+        Packing {
+            pos: sys.pos.clone(),
+            params: sys.params.clone(),
+            vel: sys.vel.clone(),
+            d: sys.d.clone(),
+        }
+    }
+
+    fn restore(&self, sys: &mut System<'_, OnFace<'_>>) {
+        sys.pos.clone_from(&self.pos);
+        sys.params.clone_from(&self.params);
+        sys.vel.clone_from(&self.vel);
+        sys.d.clone_from(&self.d);
+    }
+}
+
+/// Marks the bubbles of `n` within `k` rings (edges of `tris`) of bubbles
+/// `from..n`.
+fn rings(n: usize, tris: &[[usize; 3]], from: usize, k: usize) -> Vec<bool> {
+    let mut mark: Vec<bool> = (0..n).map(|i| i >= from).collect();
+    for _ in 0..k {
+        let mut next = mark.clone();
+        for t in tris {
+            if t.iter().any(|&v| mark[v]) {
+                for &v in t {
+                    next[v] = true;
+                }
+            }
+        }
+        mark = next;
+    }
+    mark
+}
+
+/// Whether triangles `a` (corners in `pa`) mesh a face better than `b`
+/// (in `pb`): a higher mean radius ratio, and a smallest one no lower.
+fn better(pa: &[P3], a: &[[usize; 3]], pb: &[P3], b: &[[usize; 3]]) -> bool {
+    let stats = |p: &[P3], t: &[[usize; 3]]| {
+        t.iter()
+            .map(|t| crate::measure::triangle_radius_ratio(&p[t[0]], &p[t[1]], &p[t[2]]))
+            .fold((0.0, f64::INFINITY), |(s, m), q| (s + q, m.min(q)))
+    };
+    let ((sa, ma), (sb, mb)) = (stats(pa, a), stats(pb, b));
+    !a.is_empty() && (b.is_empty() || (sa / a.len() as f64 > sb / b.len() as f64 && ma >= mb))
 }
 
 /// A face's new nodes and triangles, to be appended to the mesh.
@@ -682,6 +747,77 @@ impl<'a> FaceJob<'a> {
             sys.push_free(s.pos, uv, s.d);
         }
         Ok(sys)
+    }
+
+    /// Adds the middle rows of strips that two rows of triangles may mesh
+    /// better than one ([`placement::strip_rows`]) to the connected and
+    /// improved bubbles `sys`, `tris`, and keeps them when the face is
+    /// [`better`] with them (the new bubbles and their two rings improved
+    /// again); the report counts them.
+    fn strip_rows(
+        &self,
+        sys: &mut System<'a, OnFace<'a>>,
+        boundary: &Boundary,
+        tris: &mut Vec<[usize; 3]>,
+        fr: &mut FaceReport,
+    ) -> Result<(), MeshError> {
+        let nf = sys.n_fixed;
+        let ring = placement::Ring {
+            directed: &boundary.directed,
+            pos: &sys.pos[..nf],
+            uv: &sys.params[..nf],
+            d: &sys.d[..nf],
+        };
+        let mut d_at = placement::spacing_on(self.inputs.spacing, self.fe);
+        let rows = placement::strip_rows(
+            &sys.carrier,
+            &ring,
+            (&sys.pos[nf..], &sys.d[nf..]),
+            &mut d_at,
+        )?;
+        if rows.is_empty() {
+            return Ok(());
+        }
+        let without = Packing::of(sys);
+        let (n_rows, first_row) = (rows.len(), sys.n());
+        for s in rows {
+            let uv = sys.carrier.region.wrap(s.params);
+            sys.push_free(s.pos, uv, s.d);
+        }
+        match self.connect_and_improve(sys, boundary, Some(first_row)) {
+            Ok((t, in_plane)) if better(&sys.pos, &t, &without.pos, tris) => {
+                *tris = t;
+                fr.connected_in_plane = in_plane;
+                fr.strip_row_bubbles = n_rows;
+            }
+            // without them the face was connected: an error with them
+            // only means they are not kept
+            _ => without.restore(sys),
+        }
+        Ok(())
+    }
+
+    /// Connection, then the 2D improvement (which moves free bubbles):
+    /// of all, or with `near` of those within two rings of bubbles
+    /// `near..` (bubbles added to an improved packing).
+    fn connect_and_improve(
+        &self,
+        sys: &mut System<'a, OnFace<'a>>,
+        boundary: &Boundary,
+        near: Option<usize>,
+    ) -> Result<(Vec<[usize; 3]>, Option<String>), MeshError> {
+        let (mut tris, in_plane) = self.connect(sys, boundary)?;
+        if !self.inputs.opts.fast && PRM.improve_rounds > 0 {
+            let movable = near.map(|from| rings(sys.n(), &tris, from, 2));
+            improve::improve_where(
+                sys,
+                &mut tris,
+                &boundary.segments,
+                PRM.improve_rounds,
+                movable.as_deref(),
+            )?;
+        }
+        Ok((tris, in_plane))
     }
 
     /// Stage 2 (§4.3–4.7): relaxation with population control.

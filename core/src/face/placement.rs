@@ -396,53 +396,22 @@ pub fn strip_seeds<C: Carrier>(
     ring: &Ring<'_>,
     d_at: &mut FaceSpacing<'_>,
 ) -> Result<Vec<Seed>, MeshError> {
-    let (pos, d) = (ring.pos, ring.d);
     let mut out = Vec::new();
-    if pos.is_empty() {
+    if ring.pos.is_empty() {
         return Ok(out);
     }
-    let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
-    let dmax = d.iter().cloned().fold(0.0f64, f64::max);
-    let grid = crate::bubbles::grid::Grid::new(pos, 1.5 * dmin);
+    let grid = BoundaryGrid::new(ring);
     for &[a, b] in ring.directed {
-        let Some(ap) = segment_apex(carrier, ring, a, b, d_at)? else {
+        let Some((ap, _, width)) = across_strip(carrier, ring, &grid, a, b, d_at)? else {
             continue;
         };
-        if !carrier.contains(ap.apex_uv) {
-            continue;
-        }
         let SegmentApex {
-            mid,
             mid_uv,
             nuv,
             scale,
-            inward,
             r0,
             ..
         } = ap;
-        let apex = carrier.point(ap.apex_uv);
-        // the boundary bubble across the strip nearest to the apex: within
-        // one stable distance of it, and seen from the segment's midpoint
-        // within 45° of the inward normal (not a neighbour along the
-        // boundary)
-        let mut across: Option<(usize, f64)> = None;
-        grid.query(&apex, 0.5 * (r0 + dmax), |j| {
-            let j = j as usize;
-            let dist = (pos[j] - apex).norm();
-            let to_j = pos[j] - mid;
-            if j != a
-                && j != b
-                && dist < 0.5 * (r0 + d[j])
-                && to_j.dot(&inward) >= std::f64::consts::FRAC_1_SQRT_2 * to_j.norm()
-                && across.is_none_or(|(_, best)| dist < best)
-            {
-                across = Some((j, dist));
-            }
-        });
-        let Some((j, _)) = across else { continue };
-        // the strip's width there, across (along the inward normal); the
-        // seed goes halfway across, over the segment's midpoint
-        let width = (pos[j] - mid).dot(&inward);
         if !(STRIP_ROW * r0..=STRIP_WIDEST * r0).contains(&width) {
             continue;
         }
@@ -453,14 +422,7 @@ pub fn strip_seeds<C: Carrier>(
         }
         let p = carrier.point(m_uv);
         let dd = d_at(&p, m_uv)?;
-        let mut clear = true;
-        grid.query(&p, STRIP_CLEARANCE * 0.5 * (dd + dmax), |k| {
-            let k = k as usize;
-            if (pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (dd + d[k]) {
-                clear = false;
-            }
-        });
-        if clear {
+        if grid.clear(ring, &p, dd) {
             out.push(Seed {
                 pos: p,
                 params: m_uv,
@@ -469,6 +431,166 @@ pub fn strip_seeds<C: Carrier>(
         }
     }
     Ok(out)
+}
+
+/// Middle-row bubbles added to strips after stage 2, where two rows of
+/// triangles beat one.
+///
+/// [`strip_seeds`] starts strips of at least [`STRIP_ROW`]·r0 with a
+/// middle row, but population control deletes it in the narrower ones (a
+/// bubble 0.77·r0 from four fixed ones has an excess ratio of 0.9, over the
+/// 0.7 limit), and below that width one row was taken to be better. That
+/// holds when the two sides' bubbles are staggered (the one row is then of
+/// near-equilateral triangles); where they face each other — a wall
+/// between two parallel edges meshed alike, the commonest strip of a
+/// machined part — the one row is of near-right triangles (radius ratio
+/// 0.82 at a width of 1.2·r0) while two rows of half the height give 0.92
+/// (Gmsh's frontal insertion places that row too).
+///
+/// For each boundary segment a→b with a boundary bubble j across the strip
+/// ([`across_strip`]) and no free bubble nearer to the segment's apex than
+/// j, the seed m halfway across over the segment's midpoint is proposed
+/// when the radius ratio of the triangle (a, b, m) exceeds that of
+/// (a, b, j) by [`STRIP_ROW_GAIN`]; it is kept when it lies in the face,
+/// no boundary bubble is closer than [`STRIP_CLEARANCE`]·r0, and neither a
+/// free bubble (`free`: positions and spacings) nor an earlier kept seed
+/// is closer than 0.75·r0 ([`uncrowded`]).
+pub fn strip_rows<C: Carrier>(
+    carrier: &C,
+    ring: &Ring<'_>,
+    free: (&[P3], &[f64]),
+    d_at: &mut FaceSpacing<'_>,
+) -> Result<Vec<Seed>, MeshError> {
+    use crate::measure::triangle_radius_ratio;
+    let mut out = Vec::new();
+    if ring.pos.is_empty() {
+        return Ok(out);
+    }
+    let grid = BoundaryGrid::new(ring);
+    let (free_pos, free_d) = free;
+    let free_dmin = free_d.iter().cloned().fold(f64::INFINITY, f64::min);
+    let free_grid = crate::bubbles::grid::Grid::new(free_pos, 1.5 * free_dmin);
+    for &[a, b] in ring.directed {
+        let Some((ap, j, width)) = across_strip(carrier, ring, &grid, a, b, d_at)? else {
+            continue;
+        };
+        if width > STRIP_WIDEST * ap.r0 {
+            continue;
+        }
+        let apex = carrier.point(ap.apex_uv);
+        let to_j = (ring.pos[j] - apex).norm();
+        let mut free_nearer = false;
+        free_grid.query(&apex, to_j, |k| {
+            if (free_pos[k as usize] - apex).norm() < to_j {
+                free_nearer = true;
+            }
+        });
+        if free_nearer {
+            continue;
+        }
+        let t = 0.5 * width / ap.scale;
+        let m_uv = [ap.mid_uv[0] + t * ap.nuv[0], ap.mid_uv[1] + t * ap.nuv[1]];
+        if !carrier.contains(m_uv) {
+            continue;
+        }
+        let p = carrier.point(m_uv);
+        let (pa, pb) = (&ring.pos[a], &ring.pos[b]);
+        let one_row = triangle_radius_ratio(pa, pb, &ring.pos[j]);
+        let two_rows = triangle_radius_ratio(pa, pb, &p);
+        if !(two_rows > one_row + STRIP_ROW_GAIN) {
+            continue;
+        }
+        let dd = d_at(&p, m_uv)?;
+        if grid.clear(ring, &p, dd) {
+            out.push(Seed {
+                pos: p,
+                params: m_uv,
+                d: dd,
+            });
+        }
+    }
+    let kept = uncrowded(out, free_pos, free_d, true);
+    Ok(kept)
+}
+
+/// How much better (in radius ratio) the triangle over a boundary segment
+/// must get for [`strip_rows`] to add a middle bubble: a margin over the
+/// first-order estimate, which ignores that the row's bubbles are then
+/// moved by the improvement.
+pub const STRIP_ROW_GAIN: f64 = 0.03;
+
+/// The boundary bubbles of a ring in a grid, with their least and largest
+/// spacing, for the searches across a strip.
+struct BoundaryGrid {
+    grid: crate::bubbles::grid::Grid,
+    dmax: f64,
+}
+
+impl BoundaryGrid {
+    fn new(ring: &Ring<'_>) -> Self {
+        let dmin = ring.d.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dmax = ring.d.iter().cloned().fold(0.0f64, f64::max);
+        BoundaryGrid {
+            grid: crate::bubbles::grid::Grid::new(ring.pos, 1.5 * dmin),
+            dmax,
+        }
+    }
+
+    /// Whether no boundary bubble k is closer to `p` (spacing `dd`) than
+    /// [`STRIP_CLEARANCE`]·(dd + d_k)/2.
+    fn clear(&self, ring: &Ring<'_>, p: &P3, dd: f64) -> bool {
+        let mut clear = true;
+        self.grid
+            .query(p, STRIP_CLEARANCE * 0.5 * (dd + self.dmax), |k| {
+                let k = k as usize;
+                if (ring.pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (dd + ring.d[k]) {
+                    clear = false;
+                }
+            });
+        clear
+    }
+}
+
+/// The boundary bubble j across a strip from segment a→b, if any: the one
+/// nearest to the segment's apex ([`segment_apex`], inside the face),
+/// within one stable distance of it, and seen from the segment's midpoint
+/// within 45° of the inward normal (not a neighbour along the boundary);
+/// with the apex and the strip's width there (the distance from the
+/// midpoint to j along the inward normal).
+fn across_strip<C: Carrier>(
+    carrier: &C,
+    ring: &Ring<'_>,
+    grid: &BoundaryGrid,
+    a: usize,
+    b: usize,
+    d_at: &mut FaceSpacing<'_>,
+) -> Result<Option<(SegmentApex, usize, f64)>, MeshError> {
+    let (pos, d) = (ring.pos, ring.d);
+    let Some(ap) = segment_apex(carrier, ring, a, b, d_at)? else {
+        return Ok(None);
+    };
+    if !carrier.contains(ap.apex_uv) {
+        return Ok(None);
+    }
+    let apex = carrier.point(ap.apex_uv);
+    let mut across: Option<(usize, f64)> = None;
+    grid.grid.query(&apex, 0.5 * (ap.r0 + grid.dmax), |j| {
+        let j = j as usize;
+        let dist = (pos[j] - apex).norm();
+        let to_j = pos[j] - ap.mid;
+        if j != a
+            && j != b
+            && dist < 0.5 * (ap.r0 + d[j])
+            && to_j.dot(&ap.inward) >= std::f64::consts::FRAC_1_SQRT_2 * to_j.norm()
+            && across.is_none_or(|(_, best)| dist < best)
+        {
+            across = Some((j, dist));
+        }
+    });
+    Ok(across.map(|(j, _)| {
+        let width = (pos[j] - ap.mid).dot(&ap.inward);
+        (ap, j, width)
+    }))
 }
 
 /// The narrowest strip, in stable distances r0, that gets a middle row of
@@ -621,6 +743,73 @@ mod tests {
             // the two sides propose the same row: one of each pair is kept
             assert_eq!(uncrowded(seeds, &[], &[], true).len(), n);
         }
+    }
+
+    /// [`strip_rows`] proposes a middle row where the two sides' bubbles
+    /// face each other (one row of right triangles), none where they are
+    /// staggered (one row of near-equilateral triangles is better), and
+    /// none over a segment whose apex a free bubble already serves.
+    #[test]
+    fn strip_rows_only_where_the_sides_face_each_other() {
+        let (n, d, width) = (10usize, 0.1, 0.12);
+        // bottom at x = k/n, top at x = (k + shift)/n
+        let strip = |shift: f64| {
+            let mut pos = Vec::new();
+            let mut uv = Vec::new();
+            for (y, s) in [(0.0, 0.0), (width, shift)] {
+                for k in 0..=n {
+                    let x = (k as f64 + s) / n as f64;
+                    pos.push(P3::new(x, y, 0.0));
+                    uv.push([x, y]);
+                }
+            }
+            let mut boundary: Vec<[usize; 2]> = (0..n).map(|k| [k, k + 1]).collect();
+            boundary.extend((0..n).map(|k| [n + 2 + k, n + 1 + k]));
+            (pos, uv, boundary)
+        };
+        let mut d_at = |_: &P3, _: [f64; 2]| Ok(d);
+        let rows = |pos: &[P3],
+                    uv: &[[f64; 2]],
+                    b: &[[usize; 2]],
+                    free: &[P3],
+                    d_at: &mut FaceSpacing<'_>| {
+            let ds = vec![d; pos.len()];
+            let ring = Ring {
+                directed: b,
+                pos,
+                uv,
+                d: &ds,
+            };
+            let fd = vec![d; free.len()];
+            strip_rows(&Square, &ring, (free, &fd), d_at).unwrap()
+        };
+        let (pos, uv, b) = strip(0.0);
+        let seeds = rows(&pos, &uv, &b, &[], &mut d_at);
+        assert_eq!(seeds.len(), n, "one middle bubble per segment");
+        for s in &seeds {
+            assert!(
+                (s.pos.y - 0.5 * width).abs() < 1e-9,
+                "off the middle: {:?}",
+                s.pos
+            );
+        }
+        let (pos, uv, b) = strip(0.5);
+        let staggered = rows(&pos, &uv, &b, &[], &mut d_at);
+        assert!(
+            staggered.is_empty(),
+            "{} seeds between staggered sides",
+            staggered.len()
+        );
+        let (pos, uv, b) = strip(0.0);
+        let free: Vec<P3> = (0..n)
+            .map(|k| P3::new((k as f64 + 0.5) / n as f64, 0.08, 0.0))
+            .collect();
+        let served = rows(&pos, &uv, &b, &free, &mut d_at);
+        assert!(
+            served.is_empty(),
+            "{} seeds beside free bubbles",
+            served.len()
+        );
     }
 
     /// Seeds of the oblique quadtree (§4.1.2) on the unit square, counted
