@@ -28,6 +28,13 @@ pub trait Curve: Send + Sync + std::fmt::Debug {
     fn d1(&self, t: f64) -> V3;
     /// C''(t) = d²C/dt².
     fn d2(&self, t: f64) -> V3;
+    /// (C(t), C'(t), C''(t)): the values of [`Curve::point`],
+    /// [`Curve::d1`] and [`Curve::d2`], bit for bit. Surfaces swept from a
+    /// curve ask all three at once; an adapter that computes them together
+    /// (NURBS: one basis evaluation instead of three) answers it directly.
+    fn derivs(&self, t: f64) -> (P3, V3, V3) {
+        (self.point(t), self.d1(t), self.d2(t))
+    }
     /// Whether C(t0) == C(t1) (a circle, a closed spline).
     fn is_closed(&self) -> bool {
         let (a, b) = self.interval();

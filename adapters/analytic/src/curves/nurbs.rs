@@ -231,6 +231,10 @@ impl Curve for Nurbs {
     fn d2(&self, t: f64) -> V3 {
         self.eval(t)[2]
     }
+    fn derivs(&self, t: f64) -> (P3, V3, V3) {
+        let [c0, c1, c2] = self.eval(t);
+        (P3::from(c0), c1, c2)
+    }
 }
 
 /// Size of the fixed basis arrays: degree ≤ [`MAX_NURBS_DEGREE`].

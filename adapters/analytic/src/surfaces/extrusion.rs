@@ -5,7 +5,8 @@ use std::sync::Arc;
 use bubblemesh_core::geom::{Curve, Surface, SurfaceDerivs, P3, V3};
 
 use super::{
-    area_singular, check_range, finite3, newton_inverse, typical_partials, wrap, SurfaceError,
+    area_singular, area_singular_of, check_range, finite3, newton_inverse, typical_partials, wrap,
+    SurfaceError,
 };
 
 /// The profile curve C(t), t ∈ [t0, t1], swept along the vector d:
@@ -135,15 +136,19 @@ impl Surface for Extrusion {
         self.profile.point(self.param(u)) + self.direction * v
     }
     fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
-        let u = self.param(u);
+        let (c, c1, c2) = self.profile.derivs(self.param(u));
         SurfaceDerivs {
-            p: self.profile.point(u) + self.direction * v,
-            su: self.profile.d1(u),
+            p: c + self.direction * v,
+            su: c1,
             sv: self.direction,
-            suu: self.profile.d2(u),
+            suu: c2,
             suv: V3::zeros(),
             svv: V3::zeros(),
         }
+    }
+    fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
+        let (c, c1, _) = self.profile.derivs(self.param(u));
+        (c + self.direction * v, c1, self.direction)
     }
     /// Newton on the closest-point problem (module documentation). Without
     /// a hint the start is the best of 64 profile samples, each with the v
@@ -166,5 +171,8 @@ impl Surface for Extrusion {
     }
     fn is_singular(&self, u: f64, v: f64) -> bool {
         area_singular(&self.derivs(u, v), self.scale)
+    }
+    fn is_singular_with(&self, _u: f64, _v: f64, su: &V3, sv: &V3) -> bool {
+        area_singular_of(su, sv, self.scale)
     }
 }

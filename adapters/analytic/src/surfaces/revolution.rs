@@ -5,7 +5,9 @@ use std::sync::Arc;
 
 use bubblemesh_core::geom::{Curve, Surface, SurfaceDerivs, P3, V3};
 
-use super::{area_singular, finite3, newton_inverse, typical_partials, wrap, SurfaceError};
+use super::{
+    area_singular, area_singular_of, finite3, newton_inverse, typical_partials, wrap, SurfaceError,
+};
 
 /// The profile curve C(t), t ∈ [t0, t1], rotated about the axis through o
 /// with unit direction a:
@@ -140,11 +142,11 @@ impl Surface for Revolution {
         self.origin + self.rot(q, s, c)[0]
     }
     fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
-        let v = self.param(v);
+        let (c0, c1, c2) = self.profile.derivs(self.param(v));
         let (s, c) = u.sin_cos();
-        let q = self.rot(self.profile.point(v) - self.origin, s, c);
-        let q1 = self.rot(self.profile.d1(v), s, c);
-        let q2 = self.rot(self.profile.d2(v), s, c);
+        let q = self.rot(c0 - self.origin, s, c);
+        let q1 = self.rot(c1, s, c);
+        let q2 = self.rot(c2, s, c);
         SurfaceDerivs {
             p: self.origin + q[0],
             su: q[1],
@@ -177,5 +179,8 @@ impl Surface for Revolution {
     }
     fn is_singular(&self, u: f64, v: f64) -> bool {
         area_singular(&self.derivs(u, v), self.scale)
+    }
+    fn is_singular_with(&self, _u: f64, _v: f64, su: &V3, sv: &V3) -> bool {
+        area_singular_of(su, sv, self.scale)
     }
 }
