@@ -11,7 +11,10 @@
 //!   after a crystal from [`growth`];
 //! - stage 2: [`crate::bubbles::relax`] with the face's [`carrier`];
 //! - connection: [`connect`] (constrained Delaunay in (u,v), caps in the
-//!   tangent plane near singular points), then [`improve`];
+//!   tangent plane near singular points), then [`improve`]; where two
+//!   rows of triangles may mesh a strip better than one, its middle row
+//!   ([`placement::strip_rows`]) is tried and kept if the face is better
+//!   (not on faces bounding a volume meshed next);
 //! - on a graded planar face, a second start from the lattice conformal to
 //!   the spacing ([`conformal`]), kept when it is better;
 //! - the new nodes and triangles into the mesh.

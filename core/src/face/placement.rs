@@ -509,8 +509,7 @@ pub fn strip_rows<C: Carrier>(
             });
         }
     }
-    let kept = uncrowded(out, free_pos, free_d, true);
-    Ok(kept)
+    Ok(uncrowded(out, free_pos, free_d, true))
 }
 
 /// How much better (in radius ratio) the triangle over a boundary segment
@@ -519,8 +518,9 @@ pub fn strip_rows<C: Carrier>(
 /// moved by the improvement.
 pub const STRIP_ROW_GAIN: f64 = 0.03;
 
-/// The boundary bubbles of a ring in a grid, with their least and largest
-/// spacing, for the searches across a strip.
+/// The boundary bubbles of a ring in a grid (cells of 1.5 times their
+/// least spacing), with their largest spacing, for the searches across a
+/// strip.
 struct BoundaryGrid {
     grid: crate::bubbles::grid::Grid,
     dmax: f64,
