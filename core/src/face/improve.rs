@@ -473,6 +473,23 @@ fn lift_bubbles<C: Carrier>(
     Ok(moved)
 }
 
+/// The bubbles `mark` marks and those within `k` rings of them (joined to
+/// a marked one by an edge of `tris`, k times over).
+pub(crate) fn within_rings(mut mark: Vec<bool>, tris: &[[usize; 3]], k: usize) -> Vec<bool> {
+    for _ in 0..k {
+        let mut next = mark.clone();
+        for t in tris {
+            if t.iter().any(|&v| mark[v]) {
+                for &v in t {
+                    next[v] = true;
+                }
+            }
+        }
+        mark = next;
+    }
+    mark
+}
+
 /// Relaxation along mesh edges with the linear force of eq. 4.2.1; a move
 /// that would invert an incident triangle in (u,v) is halved, then dropped.
 /// Returns the bubbles that may have moved.
@@ -498,30 +515,15 @@ fn relax_edges<C: Carrier>(
         out
     };
     // bubbles within two rings of a poor triangle
-    let mut active = vec![false; n];
-    let mut front: Vec<usize> = Vec::new();
+    let mut poor = vec![false; n];
     for t in tris {
         if radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]) < PRM.active_q {
             for &v in t {
-                if !active[v] {
-                    active[v] = true;
-                    front.push(v);
-                }
+                poor[v] = true;
             }
         }
     }
-    for _ring in 0..2 {
-        let mut next = Vec::new();
-        for &i in &front {
-            for j in neighbours(i) {
-                if !active[j] {
-                    active[j] = true;
-                    next.push(j);
-                }
-            }
-        }
-        front = next;
-    }
+    let active = within_rings(poor, tris, 2);
     let movers: Vec<usize> = (nf..n)
         .filter(|&i| active[i] && movable.is_none_or(|m| m[i]))
         .collect();

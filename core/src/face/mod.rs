@@ -318,8 +318,9 @@ pub(crate) fn mesh_face(
     Ok((fr, out))
 }
 
-/// The bubbles of a face's system (positions, parameters, velocities,
-/// spacings), to try another connection and put them back.
+/// The free bubbles of a face's system (positions, parameters,
+/// velocities, spacings), kept aside while another start or connection is
+/// tried, and put back when it is not kept.
 struct Packing {
     pos: Vec<P3>,
     params: Vec<[f64; 2]>,
@@ -328,51 +329,56 @@ struct Packing {
 }
 
 impl Packing {
-    fn of(sys: &System<'_, OnFace<'_>>) -> Self {
+    /// A copy of the free bubbles (they stay in `sys`).
+    fn copy_of<C: constraint::Carrier>(sys: &System<'_, C>) -> Self {
+        let nf = sys.n_fixed;
         Packing {
-            pos: sys.pos.clone(),
-            params: sys.params.clone(),
-            vel: sys.vel.clone(),
-            d: sys.d.clone(),
+            pos: sys.pos[nf..].to_vec(),
+            params: sys.params[nf..].to_vec(),
+            vel: sys.vel[nf..].to_vec(),
+            d: sys.d[nf..].to_vec(),
         }
     }
 
-    fn restore(&self, sys: &mut System<'_, OnFace<'_>>) {
-        sys.pos.clone_from(&self.pos);
-        sys.params.clone_from(&self.params);
-        sys.vel.clone_from(&self.vel);
-        sys.d.clone_from(&self.d);
-    }
-}
-
-/// Marks the bubbles of `n` within `k` rings (edges of `tris`) of bubbles
-/// `from..n`.
-fn rings(n: usize, tris: &[[usize; 3]], from: usize, k: usize) -> Vec<bool> {
-    let mut mark: Vec<bool> = (0..n).map(|i| i >= from).collect();
-    for _ in 0..k {
-        let mut next = mark.clone();
-        for t in tris {
-            if t.iter().any(|&v| mark[v]) {
-                for &v in t {
-                    next[v] = true;
-                }
-            }
+    /// The free bubbles, taken out of `sys` (the fixed ones stay).
+    fn take<C: constraint::Carrier>(sys: &mut System<'_, C>) -> Self {
+        let nf = sys.n_fixed;
+        Packing {
+            pos: sys.pos.split_off(nf),
+            params: sys.params.split_off(nf),
+            vel: sys.vel.split_off(nf),
+            d: sys.d.split_off(nf),
         }
-        mark = next;
     }
-    mark
+
+    /// Makes these the free bubbles of `sys` again, in place of its own.
+    fn restore<C: constraint::Carrier>(self, sys: &mut System<'_, C>) {
+        let nf = sys.n_fixed;
+        sys.pos.truncate(nf);
+        sys.params.truncate(nf);
+        sys.vel.truncate(nf);
+        sys.d.truncate(nf);
+        sys.pos.extend(self.pos);
+        sys.params.extend(self.params);
+        sys.vel.extend(self.vel);
+        sys.d.extend(self.d);
+    }
 }
 
-/// Whether triangles `a` (corners in `pa`) mesh a face better than `b`
-/// (in `pb`): a higher mean radius ratio, and a smallest one no lower.
-fn better(pa: &[P3], a: &[[usize; 3]], pb: &[P3], b: &[[usize; 3]]) -> bool {
-    let stats = |p: &[P3], t: &[[usize; 3]]| {
-        t.iter()
-            .map(|t| crate::measure::triangle_radius_ratio(&p[t[0]], &p[t[1]], &p[t[2]]))
-            .fold((0.0, f64::INFINITY), |(s, m), q| (s + q, m.min(q)))
-    };
-    let ((sa, ma), (sb, mb)) = (stats(pa, a), stats(pb, b));
-    !a.is_empty() && (b.is_empty() || (sa / a.len() as f64 > sb / b.len() as f64 && ma >= mb))
+/// The mean and the least radius ratio of triangles `tris` (corners in
+/// `pos`); (0, +∞) for none.
+fn mean_and_least(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
+    let (sum, least) = tris
+        .iter()
+        .map(|t| improve::radius_ratio(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
+        .fold((0.0, f64::INFINITY), |(s, m), q| (s + q, m.min(q)));
+    (sum / tris.len().max(1) as f64, least)
+}
+
+/// Whether a face meshed with (mean, least) radius ratios `new` is better
+/// than with `old`: a higher mean, and a least one no lower.
+fn better_than(new: (f64, f64), old: (f64, f64)) -> bool {
+    new.0 > old.0 && new.1 >= old.1
 }
 
 /// A face's new nodes and triangles, to be appended to the mesh.
@@ -791,14 +797,18 @@ impl<'a> FaceJob<'a> {
         if rows.is_empty() {
             return Ok(());
         }
-        let without = Packing::of(sys);
+        let without = Packing::copy_of(sys);
+        let before = mean_and_least(&sys.pos, tris);
         let (n_rows, first_row) = (rows.len(), sys.n());
         for s in rows {
             let uv = sys.carrier.region.wrap(s.params);
             sys.push_free(s.pos, uv, s.d);
         }
         match self.connect_and_improve(sys, boundary, Some(first_row)) {
-            Ok((t, in_plane)) if better(&sys.pos, &t, &without.pos, tris) => {
+            Ok((t, in_plane))
+                if !t.is_empty()
+                    && (tris.is_empty() || better_than(mean_and_least(&sys.pos, &t), before)) =>
+            {
                 *tris = t;
                 fr.connected_in_plane = in_plane;
                 fr.strip_row_bubbles = n_rows;
@@ -821,7 +831,10 @@ impl<'a> FaceJob<'a> {
     ) -> Result<(Vec<[usize; 3]>, Option<String>), MeshError> {
         let (mut tris, in_plane) = self.connect(sys, boundary)?;
         if !self.inputs.opts.fast && PRM.improve_rounds > 0 {
-            let movable = near.map(|from| rings(sys.n(), &tris, from, 2));
+            let movable = near.map(|from| {
+                let new: Vec<bool> = (0..sys.n()).map(|i| i >= from).collect();
+                improve::within_rings(new, &tris, 2)
+            });
             improve::improve_where(
                 sys,
                 &mut tris,
@@ -1133,12 +1146,8 @@ fn conformal_restart<C: constraint::Carrier>(
     let Some(lattice) = conformal::lattice_seeds(&bg, &mut d_uv) else {
         return Ok(None);
     };
-    let mean_q = |sys: &system::System<'_, C>, tris: &[[usize; 3]]| {
-        tris.iter()
-            .map(|t| improve::radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]))
-            .sum::<f64>()
-            / tris.len().max(1) as f64
-    };
+    let mean_q =
+        |sys: &system::System<'_, C>, tris: &[[usize; 3]]| mean_and_least(&sys.pos, tris).0;
     // edges with L/d in [1/√2, √2], d the mean of the ends' spacings (each
     // interior edge counted once, boundary edges by their orientation, alike
     // in both meshes)
@@ -1158,12 +1167,7 @@ fn conformal_restart<C: constraint::Carrier>(
         inside as f64 / all.max(1) as f64
     };
     let before = (mean_q(sys, tris), in_band(sys, tris));
-    let saved = (
-        sys.pos.split_off(nf),
-        sys.params.split_off(nf),
-        sys.vel.split_off(nf),
-        sys.d.split_off(nf),
-    );
+    let saved = Packing::take(sys);
     for (uv, d) in &lattice.seeds {
         if sys.carrier.contains(*uv) {
             let p = sys.carrier.point(*uv);
@@ -1203,14 +1207,7 @@ fn conformal_restart<C: constraint::Carrier>(
             Ok(Some((lattice.cones, relax)))
         }
         _ => {
-            sys.pos.truncate(nf);
-            sys.params.truncate(nf);
-            sys.vel.truncate(nf);
-            sys.d.truncate(nf);
-            sys.pos.extend(saved.0);
-            sys.params.extend(saved.1);
-            sys.vel.extend(saved.2);
-            sys.d.extend(saved.3);
+            saved.restore(sys);
             Ok(None)
         }
     }

@@ -405,30 +405,13 @@ pub fn strip_seeds<C: Carrier>(
         let Some((ap, _, width)) = across_strip(carrier, ring, &grid, a, b, d_at)? else {
             continue;
         };
-        let SegmentApex {
-            mid_uv,
-            nuv,
-            scale,
-            r0,
-            ..
-        } = ap;
-        if !(STRIP_ROW * r0..=STRIP_WIDEST * r0).contains(&width) {
+        if !(STRIP_ROW * ap.r0..=STRIP_WIDEST * ap.r0).contains(&width) {
             continue;
         }
-        let t = 0.5 * width / scale;
-        let m_uv = [mid_uv[0] + t * nuv[0], mid_uv[1] + t * nuv[1]];
-        if !carrier.contains(m_uv) {
+        let Some((m_uv, p)) = halfway(carrier, &ap, width) else {
             continue;
-        }
-        let p = carrier.point(m_uv);
-        let dd = d_at(&p, m_uv)?;
-        if grid.clear(ring, &p, dd) {
-            out.push(Seed {
-                pos: p,
-                params: m_uv,
-                d: dd,
-            });
-        }
+        };
+        out.extend(grid.clear_seed(ring, p, m_uv, d_at)?);
     }
     Ok(out)
 }
@@ -488,25 +471,14 @@ pub fn strip_rows<C: Carrier>(
         if free_nearer {
             continue;
         }
-        let t = 0.5 * width / ap.scale;
-        let m_uv = [ap.mid_uv[0] + t * ap.nuv[0], ap.mid_uv[1] + t * ap.nuv[1]];
-        if !carrier.contains(m_uv) {
+        let Some((m_uv, p)) = halfway(carrier, &ap, width) else {
             continue;
-        }
-        let p = carrier.point(m_uv);
+        };
         let (pa, pb) = (&ring.pos[a], &ring.pos[b]);
         let one_row = triangle_radius_ratio(pa, pb, &ring.pos[j]);
         let two_rows = triangle_radius_ratio(pa, pb, &p);
-        if !(two_rows > one_row + STRIP_ROW_GAIN) {
-            continue;
-        }
-        let dd = d_at(&p, m_uv)?;
-        if grid.clear(ring, &p, dd) {
-            out.push(Seed {
-                pos: p,
-                params: m_uv,
-                d: dd,
-            });
+        if two_rows > one_row + STRIP_ROW_GAIN {
+            out.extend(grid.clear_seed(ring, p, m_uv, d_at)?);
         }
     }
     Ok(uncrowded(out, free_pos, free_d, true))
@@ -536,19 +508,39 @@ impl BoundaryGrid {
         }
     }
 
-    /// Whether no boundary bubble k is closer to `p` (spacing `dd`) than
-    /// [`STRIP_CLEARANCE`]·(dd + d_k)/2.
-    fn clear(&self, ring: &Ring<'_>, p: &P3, dd: f64) -> bool {
+    /// The seed at `p` (parameters `uv`) with its spacing, unless a
+    /// boundary bubble k is closer to it than [`STRIP_CLEARANCE`]·(d + d_k)/2.
+    fn clear_seed(
+        &self,
+        ring: &Ring<'_>,
+        p: P3,
+        uv: [f64; 2],
+        d_at: &mut FaceSpacing<'_>,
+    ) -> Result<Option<Seed>, MeshError> {
+        let d = d_at(&p, uv)?;
         let mut clear = true;
         self.grid
-            .query(p, STRIP_CLEARANCE * 0.5 * (dd + self.dmax), |k| {
+            .query(&p, STRIP_CLEARANCE * 0.5 * (d + self.dmax), |k| {
                 let k = k as usize;
-                if (ring.pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (dd + ring.d[k]) {
+                if (ring.pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (d + ring.d[k]) {
                     clear = false;
                 }
             });
-        clear
+        Ok(clear.then_some(Seed {
+            pos: p,
+            params: uv,
+            d,
+        }))
     }
+}
+
+/// The point halfway across a strip of `width` over segment `ap`'s
+/// midpoint (along its normal, to first order in (u,v)): its (u,v) and
+/// position, `None` outside the face.
+fn halfway<C: Carrier>(carrier: &C, ap: &SegmentApex, width: f64) -> Option<([f64; 2], P3)> {
+    let t = 0.5 * width / ap.scale;
+    let m_uv = [ap.mid_uv[0] + t * ap.nuv[0], ap.mid_uv[1] + t * ap.nuv[1]];
+    carrier.contains(m_uv).then(|| (m_uv, carrier.point(m_uv)))
 }
 
 /// The boundary bubble j across a strip from segment a→b, if any: the one
