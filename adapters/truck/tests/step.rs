@@ -312,6 +312,73 @@ fn cap_from_its_loop_up_to_a_pole_meshes() {
         .any(|n| (n.pos - bubblemesh_core::geom::P3::new(0.0, 0.0, 20.0)).norm() < 1e-9));
 }
 
+/// Regression: the drilled sphere's face has an inner loop around each
+/// pole (the hole along z). At d = diag/25 = 2.04 (radius 15) the (u,v)
+/// triangles between such a loop and the next row of bubbles are long on
+/// the surface and are dropped; the ring they leave is an annulus between
+/// the loop and the rest of the mesh. Its two sides were filled as two
+/// separate holes, the loop's nodes entering the fill twice ("two mesh
+/// nodes coincide"), and the face was meshed at a quarter of the size
+/// (12,000 bubbles instead of about 1,000). The annulus is now one hole:
+/// the face meshes at the size asked, closed with the CAD volume.
+#[test]
+fn ring_dropped_around_a_pole_loop_is_filled_as_one_hole() {
+    let (p, s) = part("sphere_drilled");
+    let opts = Options {
+        dim: Some(2),
+        ..Default::default()
+    };
+    let (mesh, report) = mesh_model(&s.model, &Constant(2.04), &opts).unwrap();
+    assert!(
+        report.refined.is_empty(),
+        "faces refined: {:?}",
+        report.refined
+    );
+    assert!(
+        mesh.nodes.len() < 1500,
+        "{} nodes: meshed finer than asked",
+        mesh.nodes.len()
+    );
+    assert_closed_with_cad_volume(&mesh, &p, 0.01);
+}
+
+/// Regression: void_box's spherical void (radius 8) at d = diag/25 = 2.08
+/// is a whole sphere of 3.85 spacings' radius. Its caps of 5 spacings
+/// around the poles reach past the equator, leaving a band of 30 bubbles
+/// in (u,v) and two near-hemispheres whose tangent-plane fills fold; the
+/// face was meshed at half the size (850 bubbles instead of 205). Smaller
+/// caps are now tried first, and the report says so for that face.
+#[test]
+fn sphere_of_a_few_spacings_connects_with_smaller_caps() {
+    let (p, s) = part("void_box");
+    let opts = Options {
+        dim: Some(2),
+        ..Default::default()
+    };
+    let (mesh, report) = mesh_model(&s.model, &Constant(2.08), &opts).unwrap();
+    assert!(
+        report.refined.is_empty(),
+        "faces refined: {:?}",
+        report.refined
+    );
+    let sphere = report
+        .faces
+        .iter()
+        .find(|f| f.boundary_bubbles <= 1)
+        .expect("the void's face");
+    let (radius, _) = sphere
+        .smaller_caps
+        .as_ref()
+        .expect("no smaller caps reported");
+    assert!(*radius < 5.0);
+    assert!(
+        sphere.bubbles < 300,
+        "{} bubbles on the void",
+        sphere.bubbles
+    );
+    assert_closed_with_cad_volume(&mesh, &p, 0.01);
+}
+
 /// Regression: the bottle's corner spheres (where three fillets meet) are
 /// small faces whose free bubbles all sit within a few spacings of the
 /// pole, so they are connected in the tangent plane. The triangles on two

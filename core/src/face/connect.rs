@@ -279,14 +279,13 @@ pub fn triangulate_surface(
     // --- where the parametrization is poor (around a pole, a hull lid
     // over a left-out cap) the (u,v) triangles are long in model space:
     // drop them and fill the holes in their tangent plane
-    let mut short = tris.clone();
-    short.retain(|t| {
+    let (mut short, dropped): (Vec<[usize; 3]>, Vec<[usize; 3]>) = tris.iter().partition(|t| {
         (0..3).all(|k| {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             (pts.pos[a] - pts.pos[b]).norm() <= LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
         })
     });
-    let mut tris = match fill_caps(pts, &mut short, boundary) {
+    let mut tris = match fill_caps(pts, &mut short, boundary, &dropped) {
         Ok(()) => short,
         // The long triangles were not a distortion but the face itself: a
         // band narrower than the spacing (the wall of a hole of radius
@@ -297,7 +296,7 @@ pub fn triangulate_surface(
         // the left-out singular points.
         Err(first) => {
             let mut all = tris;
-            match fill_caps(pts, &mut all, boundary) {
+            match fill_caps(pts, &mut all, boundary, &[]) {
                 Ok(()) => all,
                 Err(_) => return Err(first),
             }
@@ -421,12 +420,19 @@ const LONG_EDGE: f64 = 2.0;
 
 /// Fills every hole of `tris` bounded by edges that are not boundary
 /// segments, with the points that lost all their triangles (singular
-/// points, points under a dropped lid) nearest to it, in the hole's tangent
-/// plane.
+/// points, points under a dropped lid) in it, in the hole's tangent plane.
+///
+/// `dropped` are the triangles taken out of `tris` (none for singular
+/// points alone): the hole loops and points they join are one hole — the
+/// ring of triangles dropped between a face's inner boundary loop around a
+/// pole and the rest of the mesh is an annulus, filled with both loops as
+/// its sides. Points no dropped triangle reaches (singular points) go to
+/// the hole with the nearest vertex. Each point is in at most one cap.
 fn fill_caps(
     pts: &SurfacePoints<'_>,
     tris: &mut Vec<[usize; 3]>,
     boundary: &[[usize; 2]],
+    dropped: &[[usize; 3]],
 ) -> Result<(), ConnectError> {
     let n = pts.uv.len();
     // orient the (u,v) triangles along the normal so hole sides are known
@@ -449,10 +455,20 @@ fn fill_caps(
             )))
         };
     }
-    let comps = hole_components(&hole);
-    // orphans go to the component with the nearest vertex
+    let links: Vec<[usize; 2]> = dropped
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]]])
+        .collect();
+    let comps = hole_components(&hole, &links);
+    let mut in_comp = vec![false; n];
+    for c in &comps {
+        for &v in c {
+            in_comp[v] = true;
+        }
+    }
+    // the other orphans go to the component with the nearest vertex
     let mut inner: Vec<Vec<usize>> = vec![Vec::new(); comps.len()];
-    for &o in &orphans {
+    for &o in orphans.iter().filter(|&&o| !in_comp[o]) {
         let mut best = (f64::INFINITY, 0);
         for (k, c) in comps.iter().enumerate() {
             for &v in c {
@@ -543,10 +559,13 @@ fn hole_edges(tris: &[[usize; 3]], boundary: &[[usize; 2]]) -> Vec<[usize; 2]> {
     hole
 }
 
-/// The vertices of each connected component of the hole edges, each sorted
-/// by vertex id; components in the order of their smallest vertex.
-fn hole_components(hole: &[[usize; 2]]) -> Vec<Vec<usize>> {
-    // connected components of the hole edges (union-find)
+/// The vertices of each connected component of the hole edges joined also
+/// by `links` (edges of dropped triangles), each sorted by vertex id;
+/// components in the order of their smallest vertex. A dropped region's
+/// sides are hole edges (kept triangles' edges or unused boundary
+/// segments), so links join hole loops and never make a component alone.
+fn hole_components(hole: &[[usize; 2]], links: &[[usize; 2]]) -> Vec<Vec<usize>> {
+    // connected components of the hole edges and links (union-find)
     let mut parent: HashMap<usize, usize> = HashMap::new();
     fn find(p: &mut HashMap<usize, usize>, x: usize) -> usize {
         let mut r = x;
@@ -559,7 +578,7 @@ fn hole_components(hole: &[[usize; 2]]) -> Vec<Vec<usize>> {
         p.insert(x, r);
         r
     }
-    for &[a, b] in hole {
+    for &[a, b] in hole.iter().chain(links) {
         parent.entry(a).or_insert(a);
         parent.entry(b).or_insert(b);
         let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));

@@ -61,7 +61,9 @@ pub(crate) struct FaceParams {
     pub apex_layer_uniform: bool,
     /// Bubbles closer than this many spacings to a singular point of the
     /// parametrization are connected in their tangent plane (a cap), not in
-    /// (u,v).
+    /// (u,v). Where such caps do not connect (on a sphere of a few
+    /// spacings' radius they reach past its equator and fold in their
+    /// plane), the radii of [`CAP_RETRY_RADII`] are tried in turn.
     pub cap_radius: f64,
     /// Rounds of edge relaxation and Delaunay flips after connection
     /// ([`improve`]).
@@ -74,6 +76,14 @@ pub(crate) struct FaceParams {
     /// See `lattice_mean_q`.
     pub lattice_mean_rounds: usize,
 }
+
+/// Smaller cap radii (in spacings) for a curved face whose caps of
+/// `cap_radius` do not connect. A cap of radius ρ on a sphere of radius R
+/// spans an angle ρ/R on each side of its pole, and its tangent-plane fill
+/// folds when that nears π/2: 5 spacings reach the equator of a sphere of
+/// radius 3.2·d (void_box at diag/25: R = 3.85·d failed, Gmsh meshed it);
+/// 1.5 spacings keep the ring of bubbles next to the pole.
+const CAP_RETRY_RADII: [f64; 2] = [2.5, 1.5];
 
 impl FaceParams {
     /// The values in use.
@@ -125,6 +135,31 @@ pub struct FaceReport {
     /// error of the (u,v) connection at this spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub connected_in_plane: Option<String>,
+    /// Where the caps around the face's singular points (poles, apexes)
+    /// were made smaller than `cap_radius` spacings to connect it: the
+    /// radius used, in spacings, and the error with the usual caps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub smaller_caps: Option<(f64, String)>,
+}
+
+/// How a curved face was connected where its (u,v) connection with caps of
+/// `cap_radius` spacings failed; recorded in its [`FaceReport`].
+enum Fallback {
+    /// Caps of this many spacings around its singular points.
+    SmallerCaps(f64, String),
+    /// The whole face in its mean tangent plane.
+    InPlane(String),
+}
+
+impl FaceReport {
+    /// Records how the face was last connected (`None`: in (u,v) as usual).
+    fn record(&mut self, fallback: Option<Fallback>) {
+        (self.connected_in_plane, self.smaller_caps) = match fallback {
+            None => (None, None),
+            Some(Fallback::SmallerCaps(r, why)) => (None, Some((r, why))),
+            Some(Fallback::InPlane(why)) => (Some(why), None),
+        };
+    }
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -288,8 +323,8 @@ pub(crate) fn mesh_face(
     }
 
     let t3 = Instant::now();
-    let (mut tris, in_plane) = job.connect_and_improve(&mut sys, &boundary, None)?;
-    fr.connected_in_plane = in_plane;
+    let (mut tris, fallback) = job.connect_and_improve(&mut sys, &boundary, None)?;
+    fr.record(fallback);
     if !inputs.opts.fast && !job.bounds_volume {
         job.strip_rows(&mut sys, &boundary, &mut tris, &mut fr)?;
     }
@@ -805,12 +840,12 @@ impl<'a> FaceJob<'a> {
             sys.push_free(s.pos, uv, s.d);
         }
         match self.connect_and_improve(sys, boundary, Some(first_row)) {
-            Ok((t, in_plane))
+            Ok((t, fallback))
                 if !t.is_empty()
                     && (tris.is_empty() || better_than(mean_and_least(&sys.pos, &t), before)) =>
             {
                 *tris = t;
-                fr.connected_in_plane = in_plane;
+                fr.record(fallback);
                 fr.strip_row_bubbles = n_rows;
             }
             // without them the face was connected: an error with them
@@ -828,8 +863,8 @@ impl<'a> FaceJob<'a> {
         sys: &mut System<'a, OnFace<'a>>,
         boundary: &Boundary,
         near: Option<usize>,
-    ) -> Result<(Vec<[usize; 3]>, Option<String>), MeshError> {
-        let (mut tris, in_plane) = self.connect(sys, boundary)?;
+    ) -> Result<(Vec<[usize; 3]>, Option<Fallback>), MeshError> {
+        let (mut tris, fallback) = self.connect(sys, boundary)?;
         if !self.inputs.opts.fast && PRM.improve_rounds > 0 {
             let movable = near.map(|from| {
                 let new: Vec<bool> = (0..sys.n()).map(|i| i >= from).collect();
@@ -843,7 +878,7 @@ impl<'a> FaceJob<'a> {
                 movable.as_deref(),
             )?;
         }
-        Ok((tris, in_plane))
+        Ok((tris, fallback))
     }
 
     /// Stage 2 (§4.3–4.7): relaxation with population control.
@@ -882,13 +917,14 @@ impl<'a> FaceJob<'a> {
     /// Connection (§4.8): constrained Delaunay triangulation in (u,v) on a
     /// plane; on a curved surface in (u,v) scaled to the surface, and in the
     /// tangent plane near a singular point (a cap). Where that fails on a
-    /// curved face, the whole face in its mean tangent plane if it is a
-    /// graph over it; then the second value is why (u,v) failed.
+    /// curved face, with smaller caps ([`CAP_RETRY_RADII`]), then the whole
+    /// face in its mean tangent plane if it is a graph over it; the second
+    /// value says which, and why (u,v) failed.
     fn connect(
         &self,
         sys: &System<'a, OnFace<'a>>,
         boundary: &Boundary,
-    ) -> Result<(Vec<[usize; 3]>, Option<String>), MeshError> {
+    ) -> Result<(Vec<[usize; 3]>, Option<Fallback>), MeshError> {
         let surface = self.surface;
         let (segments, directed) = (&boundary.segments, &boundary.directed);
         let keep = |c: [f64; 2]| {
@@ -914,14 +950,17 @@ impl<'a> FaceJob<'a> {
             on_segment[s[0]] = true;
             on_segment[s[1]] = true;
         }
-        let singular: Vec<bool> = (0..sys.n())
-            .map(|i| {
-                !on_segment[i]
-                    && poles
-                        .iter()
-                        .any(|q| (sys.pos[i] - q).norm() < PRM.cap_radius * sys.d[i])
-            })
-            .collect();
+        let singular_within = |radius: f64| -> Vec<bool> {
+            (0..sys.n())
+                .map(|i| {
+                    !on_segment[i]
+                        && poles
+                            .iter()
+                            .any(|q| (sys.pos[i] - q).norm() < radius * sys.d[i])
+                })
+                .collect()
+        };
+        let singular = singular_within(PRM.cap_radius);
         let pts = connect::SurfacePoints {
             uv: &sys.params,
             pos: &sys.pos,
@@ -932,19 +971,37 @@ impl<'a> FaceJob<'a> {
             origin: domain_box(surface).0,
             scale: parameter_scale(surface, &sys.params),
         };
-        match connect::triangulate_surface(&pts, segments, directed) {
-            Ok(tris) => Ok((tris, None)),
-            // the face as a graph over one plane, where it is one: valid
-            // at any spacing, and checked like the rest
-            Err(
-                first @ (connect::ConnectError::Coarse(_)
-                | connect::ConnectError::Crossing(..)
-                | connect::ConnectError::Duplicate(..)),
-            ) => match connect::triangulate_projected(&pts, segments, directed) {
-                Ok(tris) => Ok((tris, Some(first.to_string()))),
-                Err(_) => Err(first.into()),
-            },
-            Err(e) => Err(e.into()),
+        let retryable = |e: &connect::ConnectError| {
+            matches!(
+                e,
+                connect::ConnectError::Coarse(_)
+                    | connect::ConnectError::Crossing(..)
+                    | connect::ConnectError::Duplicate(..)
+            )
+        };
+        let first = match connect::triangulate_surface(&pts, segments, directed) {
+            Ok(tris) => return Ok((tris, None)),
+            Err(e) if retryable(&e) => e,
+            Err(e) => return Err(e.into()),
+        };
+        // smaller caps, where there are caps
+        if singular.iter().any(|&s| s) {
+            for radius in CAP_RETRY_RADII {
+                let smaller = singular_within(radius);
+                let retry = connect::SurfacePoints {
+                    singular: &smaller,
+                    ..pts
+                };
+                if let Ok(tris) = connect::triangulate_surface(&retry, segments, directed) {
+                    return Ok((tris, Some(Fallback::SmallerCaps(radius, first.to_string()))));
+                }
+            }
+        }
+        // the face as a graph over one plane, where it is one: valid at any
+        // spacing, and checked like the rest
+        match connect::triangulate_projected(&pts, segments, directed) {
+            Ok(tris) => Ok((tris, Some(Fallback::InPlane(first.to_string())))),
+            Err(_) => Err(first.into()),
         }
     }
 
