@@ -82,6 +82,17 @@ def status(row):
     return "ok" if v.get("valid") and abs(ve) <= 0.005 else "FAIL"
 
 
+def volume_vs_gmsh(bm, gm):
+    """Issue 22's volume criterion: bubblemesh's |volume error| at most 1.2 ×
+    Gmsh's + 0.1 % of the CAD volume, both in the same run. 'within',
+    'OUTSIDE', or '' when either mesh is missing."""
+    vb = (bm or {}).get("check", {}).get("volume_rel_error")
+    vg = (gm or {}).get("check", {}).get("volume_rel_error")
+    if (bm or {}).get("error") or (gm or {}).get("error") or vb is None or vg is None:
+        return ""
+    return "within" if abs(vb) <= 1.2 * abs(vg) + 0.001 else "OUTSIDE"
+
+
 def fmt(row):
     if row.get("error"):
         return f"ERROR {row['error']}"
@@ -119,9 +130,7 @@ def main():
         step = os.path.join(run_step.ROOT, "fixtures", part["file"])
         size = part["mesh_size"]
         if a.divisor > 0:
-            lo, hi = part["bbox"]["min"], part["bbox"]["max"]
-            diag = sum((h - l) ** 2 for l, h in zip(lo, hi)) ** 0.5
-            size = float(f"{diag / a.divisor:.6g}")
+            size = run_step.diagonal_size(part, a.divisor)
         for name, fn in meshers.items():
             if name in skip:
                 continue
@@ -136,7 +145,9 @@ def main():
             if err is None and os.path.exists(out):
                 row["check"] = check(out, size, part)
             results[f"{part['name']}__{name}"] = row
-            print(f"{part['name']:16s} {name:10s} {fmt(row)}", flush=True)
+            vs = volume_vs_gmsh(results.get(f"{part['name']}__bubblemesh"), results.get(f"{part['name']}__gmsh")) \
+                if name == "gmsh" else ""
+            print(f"{part['name']:16s} {name:10s} {fmt(row)}" + (f" volume vs Gmsh: {vs}" if vs else ""), flush=True)
             json.dump(results, open(res_path, "w"), indent=1)
     write_md(man, results)
 
@@ -147,16 +158,17 @@ def write_md(man, results):
              " `--dim 3`, one thread each). Checked by meshcheck.py `--dim 3 --ref-volume <CAD volume>`:"
              " q = radius ratio 3r_in/r_circ; dihedral angles in degrees; L/d = edge length over the size"
              " (mean, fraction in [1/√2, √2]); vol err = tet volume vs CAD volume; status ok = valid and"
-             " |vol err| ≤ 0.5 %. Time: whole process, wall seconds.", "",
-             "| part | d | mesher | tets | q min | q mean | dihedral min | dihedral max | L/d mean | L/d in √2 | valid | vol err | status | time s |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             " |vol err| ≤ 0.5 %; vs Gmsh = issue 22's criterion, bubblemesh's |vol err| ≤ 1.2 × Gmsh's + 0.1 %"
+             " in the same run. Time: whole process, wall seconds.", "",
+             "| part | d | mesher | tets | q min | q mean | dihedral min | dihedral max | L/d mean | L/d in √2 | valid | vol err | status | vol vs Gmsh | time s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for part in man["parts"]:
         for name in ("bubblemesh", "gmsh"):
             r = results.get(f"{part['name']}__{name}")
             if r is None:
                 continue
             if r.get("error"):
-                lines.append(f"| {part['name']} | {r['size']} | {name} | error: {str(r['error'])[:150].replace('|', '/')} |||||||||| {r['time']:.1f} |")
+                lines.append(f"| {part['name']} | {r['size']} | {name} | error: {str(r['error'])[:150].replace('|', '/')} ||||||||||| {r['time']:.1f} |")
                 continue
             c = r["check"]
             t, s = c.get("tets", {}), c.get("spacing", {})
@@ -164,7 +176,8 @@ def write_md(man, results):
                 f"| {part['name']} | {r['size']} | {name} | {t.get('count')} | {t.get('q_min', 0):.3f} | {t.get('q_mean', 0):.3f} | "
                 f"{t.get('dihedral_min', 0):.1f} | {t.get('dihedral_max', 0):.1f} | {s.get('ratio_mean', 0):.3f} | "
                 f"{s.get('frac_within_sqrt2', 0):.3f} | {c.get('validity', {}).get('valid')} | "
-                f"{100 * c.get('volume_rel_error', 0):+.3f}% | {status(r)} | {r['time']:.1f} |")
+                f"{100 * c.get('volume_rel_error', 0):+.3f}% | {status(r)} | "
+                f"{volume_vs_gmsh(r, results.get(part['name'] + '__gmsh')) if name == 'bubblemesh' else ''} | {r['time']:.1f} |")
     open(os.path.join(OUT, "RESULTS_step3d.md"), "w").write("\n".join(lines) + "\n")
 
 
