@@ -193,7 +193,9 @@ struct MeshArgs {
     /// At least N nodes per full turn of a curved edge: where the size is
     /// larger than 2πρ/N (ρ the edge's radius of curvature) the edge takes
     /// 2πρ/N and the faces around it grade back to the size (Gmsh's
-    /// Mesh.MinimumCirclePoints); the spacing also grades from edges
+    /// Mesh.MinimumCirclePoints); a face whose own lines turn as far (a
+    /// hole's wall, a pin, a pipe) takes 2πρ/N inside too, unless that is
+    /// below a sixth of the size; the spacing also grades from edges
     /// shorter than 0.6 times the size. 0 keeps the size as given; at most
     /// 1000.
     #[arg(

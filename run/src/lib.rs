@@ -622,6 +622,22 @@ pub fn circle_points_note(model: &Model, report: &Report) -> Option<String> {
             significant(finest.requested, 3),
         ));
     }
+    if let Some(finest) = c
+        .capped_faces
+        .iter()
+        .min_by(|a, b| (a.d / a.requested).total_cmp(&(b.d / b.requested)))
+    {
+        let face = model.describe(bubblemesh_core::EntityRef::new(2, finest.edge));
+        parts.push(format!(
+            "{} curved face(s) (a hole's, a pin's or a pipe's wall) meshed finer than the size to \
+             keep {} nodes per turn, the finest {face} (radius {}) at {} instead of {}",
+            c.capped_faces.len(),
+            c.n,
+            significant(finest.radius, 3),
+            significant(finest.d, 3),
+            significant(finest.requested, 3),
+        ));
+    }
     if let Some(shortest) = c
         .short_edges
         .iter()
