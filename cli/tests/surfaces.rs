@@ -282,20 +282,14 @@ fn trimmed_nurbs_patch_with_a_hole() {
     assert!(radius_ratio_mean(&m) > 0.97);
 }
 
-/// A tube eight times longer than its diameter, meshed at twice its
-/// radius: the circles at its ends take seven nodes per turn
-/// (`--circle-points`), and so must its middle, four spacings from them,
-/// where the spacing graded from the circles is back to the size asked
-/// (three nodes per turn: a triangular prism for a tube). The face is
-/// named in the report as meshed finer than asked.
-#[test]
-fn the_middle_of_a_long_tube_keeps_seven_nodes_per_turn() {
+/// Meshes a one-surface domain file with `--size 1` and returns the mesh
+/// and the run's report.
+fn mesh_domain_with_report(surface: &str) -> (Mesh, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
-    let input = dir.path().join("tube.toml");
+    let input = dir.path().join("domain.toml");
     std::fs::write(
         &input,
-        "format = \"bubblemesh-domain 1\"\n[[surface]]\nname = \"tube\"\n\
-         cylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.5, height = 8 }\n",
+        format!("format = \"bubblemesh-domain 1\"\n[[surface]]\n{surface}\n"),
     )
     .unwrap();
     let (out, report) = (dir.path().join("m.msh"), dir.path().join("r.json"));
@@ -305,7 +299,21 @@ fn the_middle_of_a_long_tube_keeps_seven_nodes_per_turn() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let m = bubblemesh_io::read(&out).unwrap();
+    let r = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    (bubblemesh_io::read(&out).unwrap(), r)
+}
+
+/// A tube eight times longer than its diameter, meshed at twice its
+/// radius: the circles at its ends take seven nodes per turn
+/// (`--circle-points`), and so must its middle, four spacings from them,
+/// where the spacing graded from the circles is back to the size asked
+/// (three nodes per turn: a triangular prism for a tube). The face is
+/// named in the report as meshed finer than asked.
+#[test]
+fn the_middle_of_a_long_tube_keeps_seven_nodes_per_turn() {
+    let (m, r) = mesh_domain_with_report(
+        "name = \"tube\"\ncylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.5, height = 8 }",
+    );
     check(&m, 1.0);
     // every edge in the middle spans at most a sixth of a turn
     let angle = |p: &P3| p.y.atan2(p.x);
@@ -326,8 +334,6 @@ fn the_middle_of_a_long_tube_keeps_seven_nodes_per_turn() {
         }
     }
     assert!(middle > 20, "{middle} triangles in the middle");
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let capped = &r["engine"]["circle_points"]["capped_faces"];
     assert_eq!(capped.as_array().map(Vec::len), Some(1), "report: {capped}");
 }
@@ -335,26 +341,13 @@ fn the_middle_of_a_long_tube_keeps_seven_nodes_per_turn() {
 /// The same tube as a wire, its radius a tenth of the spacing (2πρ/7 below
 /// d/6): seven nodes per turn along its whole length would be some 600
 /// bubbles for a feature the spacing does not resolve, so only its end
-/// circles are capped (`FACE_CAP_FLOOR`).
+/// circles are capped (`FACE_CAP_FLOOR`); and a tube one spacing long
+/// (shorter than `FACE_CAP_MIN_LENGTH`) is graded by its circles alone.
 #[test]
-fn a_wire_far_below_the_spacing_keeps_the_size_along_its_length() {
-    let dir = tempfile::tempdir().unwrap();
-    let input = dir.path().join("wire.toml");
-    std::fs::write(
-        &input,
-        "format = \"bubblemesh-domain 1\"\n[[surface]]\nname = \"wire\"\n\
-         cylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.1, height = 8 }\n",
-    )
-    .unwrap();
-    let (out, report) = (dir.path().join("m.msh"), dir.path().join("r.json"));
-    let o = Command::new(env!("CARGO_BIN_EXE_bubblemesh"))
-        .args(["mesh", input.to_str().unwrap(), "-o", out.to_str().unwrap()])
-        .args(["--size", "1", "--report", report.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+fn wires_and_short_tubes_are_capped_by_their_circles_only() {
+    let (m, r) = mesh_domain_with_report(
+        "name = \"wire\"\ncylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.1, height = 8 }",
+    );
     let cp = &r["engine"]["circle_points"];
     assert!(
         cp["capped_faces"].is_null(),
@@ -362,6 +355,15 @@ fn a_wire_far_below_the_spacing_keeps_the_size_along_its_length() {
         cp["capped_faces"]
     );
     assert_eq!(cp["edges"].as_array().map(Vec::len), Some(2), "{cp}");
-    let m = bubblemesh_io::read(&out).unwrap();
     assert!(m.nodes.len() < 450, "{} nodes on the wire", m.nodes.len());
+    let (m, r) = mesh_domain_with_report(
+        "name = \"ring\"\ncylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.5, height = 1 }",
+    );
+    let cp = &r["engine"]["circle_points"];
+    assert!(
+        cp["capped_faces"].is_null(),
+        "capped: {}",
+        cp["capped_faces"]
+    );
+    check(&m, 1.0);
 }
