@@ -426,32 +426,16 @@ impl<'a> CirclePoints<'a> {
             if turning < MIN_TURNING {
                 continue;
             }
-            let length = crate::geom::length_between(e.curve.as_ref(), e.t0, e.t1);
-            let m = ((SAMPLES_PER_CAP * length / least).ceil() as usize)
-                .clamp(probe, MAX_SAMPLES_PER_EDGE);
-            let mut worst: Option<CappedEdge> = None;
-            for k in 0..=m {
-                let t = e.t0 + (e.t1 - e.t0) * k as f64 / m as f64;
+            let at = |t: f64| {
                 let (p, d, cap, _) = at(t);
-                if !(cap < d && d.is_finite()) {
-                    continue;
-                }
-                samples.push(Sample {
-                    p,
-                    c: cap,
-                    reach: 1.5 * (d - cap) / GRADE,
-                });
-                if worst.as_ref().is_none_or(|w| cap < w.d) {
-                    worst = Some(CappedEdge {
-                        edge: ei as u32,
-                        name: e.name.clone(),
-                        radius: cap * n as f64 / std::f64::consts::TAU,
-                        d: cap,
-                        requested: d,
-                    });
-                }
-            }
-            report.edges.extend(worst);
+                (p, d, cap)
+            };
+            let worst = sample_capped(e, least, probe, n, &at, &mut samples);
+            report.edges.extend(worst.map(|w| CappedEdge {
+                edge: ei as u32,
+                name: e.name.clone(),
+                ..w
+            }));
         }
         let face_caps = face_caps(model, inner, n, &mut samples, &mut report);
         if samples.is_empty() && face_caps.iter().all(Option::is_none) {
@@ -597,6 +581,44 @@ impl<'a> CirclePoints<'a> {
     }
 }
 
+/// Samples every c/2 (at least `probe` + 1) along edge `e` where its cap
+/// `at(t)` = (point, requested d, cap c) is below d, into `out`; `least`
+/// is the smallest such cap a first look found. Returns the finest sample
+/// for the report, with the caller's id and name still to fill in.
+fn sample_capped(
+    e: &crate::model::Edge,
+    least: f64,
+    probe: usize,
+    n: u32,
+    at: &dyn Fn(f64) -> (P3, f64, f64),
+    out: &mut Vec<Sample>,
+) -> Option<CappedEdge> {
+    let length = crate::geom::length_between(e.curve.as_ref(), e.t0, e.t1);
+    let m = ((SAMPLES_PER_CAP * length / least).ceil() as usize).clamp(probe, MAX_SAMPLES_PER_EDGE);
+    let mut finest: Option<CappedEdge> = None;
+    for k in 0..=m {
+        let (p, d, c) = at(e.t0 + (e.t1 - e.t0) * k as f64 / m as f64);
+        if !(c < d && d.is_finite()) {
+            continue;
+        }
+        out.push(Sample {
+            p,
+            c,
+            reach: 1.5 * (d - c) / GRADE,
+        });
+        if finest.as_ref().is_none_or(|w| c < w.d) {
+            finest = Some(CappedEdge {
+                edge: 0,
+                name: None,
+                radius: c * n as f64 / std::f64::consts::TAU,
+                d: c,
+                requested: d,
+            });
+        }
+    }
+    finest
+}
+
 /// Per face, its [`FaceCap`] where its lines turn at least
 /// [`MIN_TURNING`] and the cap is below the requested spacing somewhere on
 /// its boundary; for those, samples every c/2 along their edges (so that
@@ -645,28 +667,13 @@ fn face_caps(
             if !(least > 0.0 && least.is_finite()) {
                 continue;
             }
-            let length = crate::geom::length_between(e.curve.as_ref(), e.t0, e.t1);
-            let m = ((SAMPLES_PER_CAP * length / least).ceil() as usize)
-                .clamp(probe, MAX_SAMPLES_PER_EDGE);
-            for k in 0..=m {
-                let (p, d, c) = at(e.t0 + (e.t1 - e.t0) * k as f64 / m as f64);
-                if !(c < d && d.is_finite()) {
-                    continue;
-                }
-                face_samples.push(Sample {
-                    p,
-                    c,
-                    reach: 1.5 * (d - c) / GRADE,
+            let finest = sample_capped(e, least, probe, n, &at, &mut face_samples);
+            if let Some(f) = finest.filter(|f| worst.as_ref().is_none_or(|w| f.d < w.d)) {
+                worst = Some(CappedEdge {
+                    edge: fi as u32,
+                    name: face.name.clone(),
+                    ..f
                 });
-                if worst.as_ref().is_none_or(|w| c < w.d) {
-                    worst = Some(CappedEdge {
-                        edge: fi as u32,
-                        name: face.name.clone(),
-                        radius: c * n as f64 / std::f64::consts::TAU,
-                        d: c,
-                        requested: d,
-                    });
-                }
             }
         }
         match worst {
