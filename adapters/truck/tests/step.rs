@@ -246,11 +246,33 @@ fn part(name: &str) -> (serde_json::Value, bubblemesh_truck::StepModel) {
 
 /// The faces (dim 2) of a part at a uniform size.
 fn mesh_faces(s: &bubblemesh_truck::StepModel, size: f64) -> bubblemesh_core::Mesh {
+    mesh_faces_reported(s, size).0
+}
+
+/// [`mesh_faces`] with the engine's report, asserting that no face was
+/// refined (meshed finer than `size` to connect it).
+fn mesh_faces_unrefined(
+    s: &bubblemesh_truck::StepModel,
+    size: f64,
+) -> (bubblemesh_core::Mesh, bubblemesh_core::Report) {
+    let (mesh, report) = mesh_faces_reported(s, size);
+    assert!(
+        report.refined.is_empty(),
+        "faces refined: {:?}",
+        report.refined
+    );
+    (mesh, report)
+}
+
+fn mesh_faces_reported(
+    s: &bubblemesh_truck::StepModel,
+    size: f64,
+) -> (bubblemesh_core::Mesh, bubblemesh_core::Report) {
     let opts = Options {
         dim: Some(2),
         ..Default::default()
     };
-    mesh_model(&s.model, &Constant(size), &opts).unwrap().0
+    mesh_model(&s.model, &Constant(size), &opts).unwrap()
 }
 
 /// A closed, outward surface enclosing the manifest part's CAD volume to
@@ -324,16 +346,7 @@ fn cap_from_its_loop_up_to_a_pole_meshes() {
 #[test]
 fn ring_dropped_around_a_pole_loop_is_filled_as_one_hole() {
     let (p, s) = part("sphere_drilled");
-    let opts = Options {
-        dim: Some(2),
-        ..Default::default()
-    };
-    let (mesh, report) = mesh_model(&s.model, &Constant(2.04), &opts).unwrap();
-    assert!(
-        report.refined.is_empty(),
-        "faces refined: {:?}",
-        report.refined
-    );
+    let (mesh, _) = mesh_faces_unrefined(&s, 2.04);
     assert!(
         mesh.nodes.len() < 1500,
         "{} nodes: meshed finer than asked",
@@ -351,16 +364,7 @@ fn ring_dropped_around_a_pole_loop_is_filled_as_one_hole() {
 #[test]
 fn sphere_of_a_few_spacings_connects_with_smaller_caps() {
     let (p, s) = part("void_box");
-    let opts = Options {
-        dim: Some(2),
-        ..Default::default()
-    };
-    let (mesh, report) = mesh_model(&s.model, &Constant(2.08), &opts).unwrap();
-    assert!(
-        report.refined.is_empty(),
-        "faces refined: {:?}",
-        report.refined
-    );
+    let (mesh, report) = mesh_faces_unrefined(&s, 2.08);
     let sphere = report
         .faces
         .iter()
