@@ -470,12 +470,11 @@ fn unit_converts_step_coordinates_and_size() {
         );
     }
     // the spacing scaled with the coordinates: about as many nodes (not
-    // the same: stage 1's oblique quadtree splits rhombi of the face's own
-    // (u,v), whose shape in model space depends on the unit where u is an
-    // angle and v a length; the through holes' walls, capped to seven
-    // nodes per turn inside, start from 21 bubbles in mm and 27 in cm,
-    // 646 and 666 nodes in all; a --size left unconverted would be 100
-    // times as many)
+    // the same: stage 1 of a graded curved face depends on the unit — the
+    // through holes' walls, capped to seven nodes per turn inside, start
+    // from 21 bubbles in mm and 27 in cm, 646 and 666 nodes in all, see
+    // docs/decisions.md, session 22; a --size left unconverted would give
+    // 100 times as many)
     let (n1, n2) = (m1.nodes.len() as f64, m2.nodes.len() as f64);
     assert!((n1 - n2).abs() < 0.04 * n1, "{n1} nodes in mm, {n2} in cm");
     let r: serde_json::Value =
