@@ -23,9 +23,12 @@ its process. bubblemesh: the whole process (`bubblemesh mesh FILE -o OUT
 Both run under the same address-space limit (`prlimit --as`) and timeout. A
 run is `valid` when it exits 0 and meshcheck says valid; a run that exits 0
 with an invalid mesh is counted separately as `WRONG` (the one outcome a
-mesher must never have).
+mesher must never have). The summary per mode also counts, over the files
+both mesh validly, issue 22's comparisons (mean radius ratio and smallest
+angle or dihedral angle at least Gmsh's, naming the files below) and the
+median of bubblemesh's time over Gmsh's.
 """
-import argparse, json, os, subprocess, sys, time
+import argparse, json, os, statistics, subprocess, sys, time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHARED = os.path.join(os.path.dirname(ROOT), "shared")
@@ -228,7 +231,9 @@ def write_table(results):
         go, bo = outcome(g, gc), outcome(b, bc)
         s = summary.setdefault(mode, {"n": 0, "gmsh_valid": 0, "bm_valid": 0, "bm_wrong": 0,
                                       "bm_valid_where_gmsh_valid": 0, "bm_only": 0,
-                                      "same_topology": 0, "other_topology": []})
+                                      "same_topology": 0, "other_topology": [],
+                                      "mean_at_least": 0, "worst_at_least": 0, "below": [],
+                                      "ratios": []})
         s["n"] += 1
         s["gmsh_valid"] += go == "valid"
         s["bm_valid"] += bo == "valid"
@@ -244,6 +249,17 @@ def write_table(results):
                 s["other_topology"].append(f)
         tp = f"{'–' if bt is None else '%d, %d' % bt} / {'–' if gt is None else '%d, %d' % gt}"
         g_t = sum(g.get(k, 0) for k in ("import_s", "mesh_s", "write_s"))
+        if go == "valid" and bo == "valid":
+            # issue 22: mean quality and worst angle at least Gmsh's
+            mean_ok = bc["q_mean"] >= gc["q_mean"]
+            worst_ok = bc["worst"] >= gc["worst"]
+            s["mean_at_least"] += mean_ok
+            s["worst_at_least"] += worst_ok
+            if not (mean_ok and worst_ok):
+                s["below"].append(f"{f} ({'mean' if not mean_ok else ''}"
+                                  f"{', ' if not (mean_ok or worst_ok) else ''}{'angle' if not worst_ok else ''})")
+            if g_t > 0:
+                s["ratios"].append(b["time_s"] / g_t)
         gq = f"{fmt((gc or {}).get('q_mean'))} / {fmt((gc or {}).get('q_min'))}"
         bq = f"{fmt((bc or {}).get('q_mean'))} / {fmt((bc or {}).get('q_min'))}"
         wa = f"{fmt((bc or {}).get('worst'), '{:.1f}')} / {fmt((gc or {}).get('worst'), '{:.1f}')}"
@@ -257,7 +273,13 @@ def write_table(results):
                     f"bubblemesh WRONG (exit 0, invalid mesh): {s['bm_wrong']}; same topology as Gmsh "
                     f"(Euler characteristic, boundary loops) on {s['same_topology']} of "
                     f"{s['same_topology'] + len(s['other_topology'])} both valid"
-                    + (f" (other: {', '.join(s['other_topology'])})" if s["other_topology"] else ""))
+                    + (f" (other: {', '.join(s['other_topology'])})" if s["other_topology"] else "")
+                    + f"; of those, mean quality at or above Gmsh's on {s['mean_at_least']} and smallest "
+                    f"{'angle' if mode == 'surf' else 'dihedral angle'} on {s['worst_at_least']}"
+                    + (f" (below: {'; '.join(s['below'])})" if s["below"] else "")
+                    + (f"; time bubblemesh / Gmsh median {statistics.median(s['ratios']):.2f}, "
+                       f"at most 1 on {sum(x <= 1 for x in s['ratios'])} of {len(s['ratios'])}"
+                       if s["ratios"] else ""))
     text = "\n".join(head + [""] + lines) + "\n"
     open(os.path.join(OUT, "RESULTS.md"), "w").write(text)
     print("\n".join(head[4:]))
