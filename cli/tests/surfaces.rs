@@ -345,25 +345,27 @@ fn the_middle_of_a_long_tube_keeps_seven_nodes_per_turn() {
 /// (shorter than `FACE_CAP_MIN_LENGTH`) is graded by its circles alone.
 #[test]
 fn wires_and_short_tubes_are_capped_by_their_circles_only() {
-    let (m, r) = mesh_domain_with_report(
-        "name = \"wire\"\ncylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.1, height = 8 }",
-    );
-    let cp = &r["engine"]["circle_points"];
-    assert!(
-        cp["capped_faces"].is_null(),
-        "capped: {}",
-        cp["capped_faces"]
-    );
+    // a tube of the given radius and height at size 1: its mesh and the
+    // report's circle-point section, asserting that no face was capped
+    let uncapped = |radius: f64, height: f64| {
+        let (m, r) = mesh_domain_with_report(&format!(
+            "name = \"tube\"\ncylinder = {{ origin = [0, 0, 0], axis = [0, 0, 1], \
+             radius = {radius}, height = {height} }}"
+        ));
+        let cp = r["engine"]["circle_points"].clone();
+        assert!(
+            cp["capped_faces"].is_null(),
+            "r = {radius}, h = {height}: {cp}"
+        );
+        (m, cp)
+    };
+    let (wire, cp) = uncapped(0.1, 8.0);
     assert_eq!(cp["edges"].as_array().map(Vec::len), Some(2), "{cp}");
-    assert!(m.nodes.len() < 450, "{} nodes on the wire", m.nodes.len());
-    let (m, r) = mesh_domain_with_report(
-        "name = \"ring\"\ncylinder = { origin = [0, 0, 0], axis = [0, 0, 1], radius = 0.5, height = 1 }",
-    );
-    let cp = &r["engine"]["circle_points"];
     assert!(
-        cp["capped_faces"].is_null(),
-        "capped: {}",
-        cp["capped_faces"]
+        wire.nodes.len() < 450,
+        "{} nodes on the wire",
+        wire.nodes.len()
     );
-    check(&m, 1.0);
+    let (ring, _) = uncapped(0.5, 1.0);
+    check(&ring, 1.0);
 }

@@ -142,33 +142,16 @@ impl FaceCap {
     /// 2π/(n·κ) at (u,v), +∞ where the lines are straight or the
     /// parametrization is singular.
     fn cap(&self, uv: [f64; 2], n: u32) -> f64 {
-        let k = line_curvature(&self.surface.derivs(uv[0], uv[1]), self.along);
+        let k = crate::curvature::parameter_line_curvature(
+            &self.surface.derivs(uv[0], uv[1]),
+            self.along,
+        );
         if k > 0.0 && k.is_finite() {
             std::f64::consts::TAU / (n as f64 * k)
         } else {
             f64::INFINITY
         }
     }
-}
-
-/// The larger normal curvature |S_ww · N| / |S_w|² along the parameter
-/// lines flagged in `along` (w = u for index 0, v for 1); 0 where the
-/// normal is undefined.
-fn line_curvature(s: &crate::geom::SurfaceDerivs, along: [bool; 2]) -> f64 {
-    let n = s.su.cross(&s.sv);
-    let nn = n.norm();
-    if !(nn > 0.0) {
-        return 0.0;
-    }
-    let n = n / nn;
-    let mut k: f64 = 0.0;
-    for (w, sw, sww) in [(0, s.su, s.suu), (1, s.sv, s.svv)] {
-        let l2 = sw.norm_squared();
-        if along[w] && l2 > 0.0 {
-            k = k.max((sww.dot(&n) / l2).abs());
-        }
-    }
-    k
 }
 
 /// A face whose cap falls below this fraction of the requested spacing

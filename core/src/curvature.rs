@@ -93,6 +93,27 @@ pub fn principal_curvatures(s: &SurfaceDerivs) -> Option<Principal> {
     })
 }
 
+/// The larger normal curvature |II(w, w)| / I(w, w) = |S_ww · N| / |S_w|²
+/// along the parameter lines flagged in `along` (w = u for index 0, v for
+/// 1), in 1/model units: the curvature of a u or v line as the surface
+/// bends it. 0 where a flagged partial or the normal vanishes.
+pub fn parameter_line_curvature(s: &SurfaceDerivs, along: [bool; 2]) -> f64 {
+    let n = s.su.cross(&s.sv);
+    let nn = n.norm();
+    if !(nn > 0.0) {
+        return 0.0;
+    }
+    let n = n / nn;
+    let mut k: f64 = 0.0;
+    for (w, sw, sww) in [(0, s.su, s.suu), (1, s.sv, s.svv)] {
+        let l2 = sw.norm_squared();
+        if along[w] && l2 > 0.0 {
+            k = k.max((sww.dot(&n) / l2).abs());
+        }
+    }
+    k
+}
+
 /// Curvature of a surface point: the larger principal curvature in absolute
 /// value, from the first and second fundamental forms. `None` at a singular
 /// point (S_u × S_v = 0).
