@@ -191,16 +191,31 @@ fn turning_lines(model: &Model, fi: usize) -> ([bool; 2], [f64; 2]) {
     }
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
+    let (periods, (du, dv)) = (surface.periods(), surface.domain());
+    let origin = [du[0], dv[0]];
     for u in face.loops.iter().flat_map(|l| l.edges.iter()) {
         let e = &model.edges[u.edge as usize];
+        let mut hint = None;
         for k in 0..=8 {
             let t = e.t0 + (e.t1 - e.t0) * k as f64 / 8.0;
-            if let Some(q) = crate::curvature::edge_point_uv(model, fi as u32, u.edge, t) {
+            let uv = crate::curvature::edge_point_uv_near(model, fi as u32, u.edge, t, hint);
+            // in the fundamental domain, as an inversion without a hint
+            // gives it (a hint walks on across a seam)
+            let wrapped = uv.map(|mut q| {
+                for c in 0..2 {
+                    if let Some(p) = periods[c] {
+                        q[c] = origin[c] + (q[c] - origin[c]).rem_euclid(p);
+                    }
+                }
+                q
+            });
+            if let Some(q) = wrapped {
                 for c in 0..2 {
                     lo[c] = lo[c].min(q[c]);
                     hi[c] = hi[c].max(q[c]);
                 }
             }
+            hint = uv.or(hint);
         }
     }
     if !(lo[0] < hi[0] && lo[1] < hi[1]) {

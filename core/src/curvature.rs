@@ -161,6 +161,20 @@ pub fn edge_faces(model: &Model) -> Vec<Vec<u32>> {
 /// (u,v) on face `fi` of the point at parameter `t` of edge `ei`: from the
 /// pcurve when the model has one, else by inverting the surface.
 pub fn edge_point_uv(model: &Model, fi: u32, ei: u32, t: f64) -> Option<[f64; 2]> {
+    edge_point_uv_near(model, fi, ei, t, None)
+}
+
+/// [`edge_point_uv`], the surface inverted from `hint` (the (u,v) of a
+/// nearby point of the edge, when walking along it: a NURBS face's
+/// inversion from nothing is most of the cost where a file has no
+/// pcurves).
+pub fn edge_point_uv_near(
+    model: &Model,
+    fi: u32,
+    ei: u32,
+    t: f64,
+    hint: Option<[f64; 2]>,
+) -> Option<[f64; 2]> {
     match model.pcurves.get(&(fi, ei)) {
         Some(pc) => {
             let q = pc.point(t);
@@ -168,7 +182,7 @@ pub fn edge_point_uv(model: &Model, fi: u32, ei: u32, t: f64) -> Option<[f64; 2]
         }
         None => {
             let p = model.edges.get(ei as usize)?.curve.point(t);
-            model.faces.get(fi as usize)?.surface.inverse(&p, None)
+            model.faces.get(fi as usize)?.surface.inverse(&p, hint)
         }
     }
 }
