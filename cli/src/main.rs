@@ -520,7 +520,10 @@ fn engine_options(a: &MeshArgs, model: &Model, threads: usize) -> Result<Options
         threads,
         circle_points: a.circle_points,
     };
-    let opts = settings.options(&a.input, model);
+    let mut opts = settings.options(&a.input, model);
+    // the energy history (a sweep over every pair per sample) is only
+    // shown by the report and the plots; it never changes the mesh
+    opts.relax.record_energy = a.report.is_some() || a.picture.plots.is_some();
     // the global pool is built once per process (here, its only builder)
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

@@ -29,6 +29,11 @@ pub struct Shell {
     /// Triangles (indices into `pts`) whose (y,z) projection is not
     /// degenerate, ordered counter-clockwise in (y,z).
     tris: Vec<[u32; 3]>,
+    /// The largest x of each triangle of `tris`. Each bin's items are
+    /// sorted by it, decreasing, so a ray query stops at the first
+    /// triangle wholly behind the point (x < p.x), which the +x ray cannot
+    /// meet: half a column's triangles on average.
+    xmax: Vec<f64>,
     lo: [f64; 2],
     inv_h: f64,
     dims: [usize; 2],
@@ -208,6 +213,7 @@ impl Shell {
             return Shell {
                 pts,
                 tris: kept,
+                xmax: vec![],
                 lo: [0.0; 2],
                 inv_h: 1.0,
                 dims: [1, 1],
@@ -262,9 +268,25 @@ impl Shell {
                 }
             }
         }
+        let xmax: Vec<f64> = kept
+            .iter()
+            .map(|t| {
+                t.iter()
+                    .map(|&k| pts[k as usize].x)
+                    .fold(f64::MIN, f64::max)
+            })
+            .collect();
+        for c in 0..dims[0] * dims[1] {
+            items[count[c] as usize..count[c + 1] as usize].sort_unstable_by(|&a, &b| {
+                xmax[b as usize]
+                    .total_cmp(&xmax[a as usize])
+                    .then(a.cmp(&b))
+            });
+        }
         let mut shell = Shell {
             pts,
             tris: kept,
+            xmax,
             lo,
             inv_h,
             dims,
@@ -362,6 +384,9 @@ impl Shell {
         let q = c2(p);
         let mut odd = false;
         for &t in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
+            if self.xmax[t as usize] < p.x {
+                break;
+            }
             let [a, b, cc] = self.tris[t as usize].map(|k| self.pts[k as usize]);
             let mut hit = true;
             for (e0, e1) in [(&a, &b), (&b, &cc), (&cc, &a)] {
@@ -399,7 +424,13 @@ pub fn orient_outward(pts: &[P3], tris: &mut [[u32; 3]]) -> Result<(), ShellErro
                 .push(ti as u32);
         }
     }
-    if let Some((e, ts)) = by_edge.iter().find(|(_, v)| v.len() != 2) {
+    // the first such edge in vertex order, so the message is the same on
+    // every run (a HashMap's iteration order is not)
+    if let Some((e, ts)) = by_edge
+        .iter()
+        .filter(|(_, v)| v.len() != 2)
+        .min_by_key(|(e, _)| **e)
+    {
         let (a, b) = (pts[e.0 as usize], pts[e.1 as usize]);
         return Err(ShellError::NotClosed {
             a,
@@ -562,6 +593,43 @@ mod tests {
             }
         }
         assert!(inside > 0);
+    }
+
+    /// The ray test stops at the first triangle of its column wholly
+    /// behind the point (`Shell::xmax`): a cube with a cubic void, both
+    /// split along diagonals, on a lattice whose x values include every
+    /// triangle's largest x, classified as the exact parity says.
+    #[test]
+    fn rays_stop_at_triangles_behind_the_point_without_changing_the_parity() {
+        let (mut pts, mut tris) = cube();
+        let (inner, inner_tris) = cube();
+        pts.extend(
+            inner
+                .iter()
+                .map(|p| P3::new(0.25 + 0.5 * p.x, 0.25 + 0.5 * p.y, 0.25 + 0.5 * p.z)),
+        );
+        tris.extend(inner_tris.iter().map(|t| t.map(|k| k + 8)));
+        let s = Shell::new(pts, &tris);
+        let on = |x: f64, lo: f64, hi: f64| x == lo || x == hi;
+        let mut tested = [0; 2];
+        for i in 0..=24 {
+            for j in 0..=8 {
+                for k in 0..=8 {
+                    let p = P3::new(i as f64 / 20.0 - 0.1, j as f64 / 8.0, k as f64 / 8.0);
+                    let in_box = |lo: f64, hi: f64| (0..3).all(|a| p[a] > lo && p[a] < hi);
+                    let on_shell = |lo: f64, hi: f64| {
+                        (0..3).any(|a| on(p[a], lo, hi)) && (0..3).all(|a| p[a] >= lo && p[a] <= hi)
+                    };
+                    if on_shell(0.0, 1.0) || on_shell(0.25, 0.75) {
+                        continue;
+                    }
+                    let want = in_box(0.0, 1.0) && !in_box(0.25, 0.75);
+                    assert_eq!(s.ray_inside(&p), want, "{p:?}");
+                    tested[want as usize] += 1;
+                }
+            }
+        }
+        assert!(tested[0] > 100 && tested[1] > 100, "{tested:?}");
     }
 
     #[test]
