@@ -268,21 +268,7 @@ impl Shell {
                 }
             }
         }
-        let xmax: Vec<f64> = kept
-            .iter()
-            .map(|t| {
-                t.iter()
-                    .map(|&k| pts[k as usize].x)
-                    .fold(f64::MIN, f64::max)
-            })
-            .collect();
-        for c in 0..dims[0] * dims[1] {
-            items[count[c] as usize..count[c + 1] as usize].sort_unstable_by(|&a, &b| {
-                xmax[b as usize]
-                    .total_cmp(&xmax[a as usize])
-                    .then(a.cmp(&b))
-            });
-        }
+        let xmax = sort_columns_by_xmax(&pts, &kept, &count, &mut items);
         let mut shell = Shell {
             pts,
             tris: kept,
@@ -403,6 +389,33 @@ impl Shell {
         }
         odd
     }
+}
+
+/// The largest x of each triangle, and each (y,z) column's items sorted by
+/// it, decreasing (see [`Shell::xmax`]); `start` holds the columns' offsets
+/// into `items`.
+fn sort_columns_by_xmax(
+    pts: &[P3],
+    tris: &[[u32; 3]],
+    start: &[u32],
+    items: &mut [u32],
+) -> Vec<f64> {
+    let xmax: Vec<f64> = tris
+        .iter()
+        .map(|t| {
+            t.iter()
+                .map(|&k| pts[k as usize].x)
+                .fold(f64::MIN, f64::max)
+        })
+        .collect();
+    for w in start.windows(2) {
+        items[w[0] as usize..w[1] as usize].sort_unstable_by(|&a, &b| {
+            xmax[b as usize]
+                .total_cmp(&xmax[a as usize])
+                .then(a.cmp(&b))
+        });
+    }
+    xmax
 }
 
 /// Orients the triangles of a set of closed shells so that every normal
