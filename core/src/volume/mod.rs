@@ -1042,7 +1042,8 @@ fn connect_first(
 }
 
 /// Sliver removal, then up to [`tet::steiner::STEINER_ROUNDS`] rounds of
-/// Steiner points for the slivers among fixed nodes, each followed by a
+/// Steiner points for the slivers among fixed nodes (fewer where they stop
+/// converging: [`tet::steiner::STEINER_FEW`]), each followed by a
 /// re-connection and another sliver pass (the first round's points, where
 /// they are many, smoothed before: [`STEINER_ODT_ITERATIONS`]). `first_qs`: the objectives of
 /// the tetrahedra, if the caller has them. The first `n_keep` nodes keep
@@ -1064,7 +1065,7 @@ fn remove_slivers(
     failed: &dyn Fn(connect::Connect3dError) -> MeshError,
 ) -> Result<(), MeshError> {
     use tet::sliver::{remove_slivers, remove_slivers_given, SliverParams};
-    use tet::steiner::{steiner_points, with_points, FLAT_Q, STEINER_ROUNDS};
+    use tet::steiner::{steiner_points, with_points, FLAT_Q, STEINER_FEW, STEINER_ROUNDS};
     let params = SliverParams::default();
     let (local, n_fixed) = sides;
     // the Delaunay tetrahedralization's flat tetrahedra among boundary
@@ -1106,6 +1107,8 @@ fn remove_slivers(
         Some(qs) => remove_slivers_given(tm, &params, qs),
         None => remove_slivers(tm, &params),
     };
+    // the points the last round asked for (see STEINER_FEW)
+    let mut asked = usize::MAX;
     for round in 0..STEINER_ROUNDS {
         // and those that the sliver pass left
         work.extend(
@@ -1114,10 +1117,16 @@ fn remove_slivers(
             }),
         );
         let extra = steiner_points(&tm.pos, &work, &tm.d, &inside);
+        let flat_left = work
+            .iter()
+            .any(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t) < FLAT_Q);
         work.clear();
-        if extra.is_empty() {
+        if extra.is_empty()
+            || (round >= 2 && !flat_left && 2 * extra.len() > asked && extra.len() > STEINER_FEW)
+        {
             break;
         }
+        asked = extra.len();
         rep.steiner += extra.len();
         let extra_n = extra.len();
         // the kept nodes, then the new ones; fixed nodes keep their
