@@ -1117,12 +1117,12 @@ fn remove_slivers(
             }),
         );
         let extra = steiner_points(&tm.pos, &work, &tm.d, &inside);
-        let flat_left = work
+        let poor_left = work
             .iter()
-            .any(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t) < FLAT_Q);
+            .any(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t) < crate::quality::POOR_Q);
         work.clear();
         if extra.is_empty()
-            || (round >= 2 && !flat_left && 2 * extra.len() > asked && extra.len() > STEINER_FEW)
+            || (round >= 2 && !poor_left && 2 * extra.len() > asked && extra.len() > STEINER_FEW)
         {
             break;
         }

@@ -8,9 +8,10 @@ use crate::geom::{P3, V3};
 /// Rounds of [`steiner_points`] and re-connection after the sliver pass,
 /// at most (see [`STEINER_FEW`] for when fewer).
 pub(crate) const STEINER_ROUNDS: usize = 6;
-/// A round after the second is run only while a flat tetrahedron (below
-/// [`FLAT_Q`]) is left among fixed nodes, or the round asks for at most
-/// half the points of the one before, or for at most this many.
+/// A round after the second is run only while a poor tetrahedron (radius
+/// ratio below [`POOR_Q`](crate::quality::POOR_Q)) is left among fixed
+/// nodes, or the round asks for at most half the points of the one
+/// before, or for at most this many.
 ///
 /// Why: on some parts the slivers among fixed nodes stop converging after
 /// a round or two, each round then asking for as many points as the last
@@ -19,18 +20,20 @@ pub(crate) const STEINER_ROUNDS: usize = 6;
 /// every round costs a whole re-connection and sliver pass. A handful of
 /// points is the last few slivers being split, which is where the worst
 /// dihedral angle is made (as_0080: 8 and 6 points raise it from 13° to
-/// 21°), so those rounds go on; and the first two rounds always run
-/// (b3d_bottle at diag/20, ~200 points a round: stopping after one left
-/// its mean at 0.422, under Gmsh's 0.431; after two, 0.434). Measured on
-/// the 27 realstep files meshed into tetrahedra at diag/20 (one thread):
-/// 43.5 → 32.7 s in all, as_0082 9.5 → 6.3 s, pyocc_Ventilator 4.7 →
-/// 2.8 s, as_40mm_capot 4.0 → 2.9 s; mean radius ratio up on 9 files and
-/// down on 4 (at most 0.009: as_0083 0.816 → 0.807, Gmsh 0.570), the
-/// smallest dihedral angle lower on 5 (as_0082 0.85° → 0.33°, where Gmsh
-/// has no mesh; as_house_walls 5.1° → 4.4°, Gmsh 3.3°; the others by
-/// under 0.1°) and higher on 1 (as_0084 5.6° → 8.5°); the files at or
-/// above Gmsh's mean and smallest angle the same. With no floor (32 → 0)
-/// the smallest angles of as_0080, as_0079, as_0085 fell by 3–8°.
+/// 21°), so those rounds go on; so do the first two (b3d_bottle at
+/// diag/20, ~200 points a round: stopping after one left its mean at
+/// 0.422, under Gmsh's 0.431) and every round while a poor tetrahedron is
+/// left (with only flat ones, below FLAT_Q, counted, b3d_bottle at size 1
+/// kept ten below 0.01, the worst 7.9e-6, where six rounds leave none).
+/// Measured on the 27 realstep files meshed into tetrahedra at diag/20
+/// (one thread): 43.5 → 36.7 s in all, as_0082 9.5 → 6.3 s, as_0048 2.1
+/// → 1.5 s; mean radius ratio up on 7 files and down on 3 (at most 0.009:
+/// as_0083 0.816 → 0.807, Gmsh 0.570), the smallest dihedral angle lower
+/// on 4 (as_0082 0.85° → 0.33°, where Gmsh has no mesh; as_house_walls
+/// 5.1° → 4.4°, Gmsh 3.3°; the others by under 0.1°) and higher on 1
+/// (as_0084 5.6° → 8.5°); the files at or above Gmsh's mean and smallest
+/// angle the same. With no floor (32 → 0) the smallest angles of as_0080,
+/// as_0079, as_0085 fell by 3–8°.
 pub(crate) const STEINER_FEW: usize = 32;
 /// A tetrahedron with a radius ratio below this is flat: it gets Steiner
 /// points, and the volume is refused rather than meshed with one.
