@@ -201,14 +201,7 @@ fn turning_lines(model: &Model, fi: usize) -> ([bool; 2], [f64; 2]) {
             let uv = crate::curvature::edge_point_uv_near(model, fi as u32, u.edge, t, hint);
             // in the fundamental domain, as an inversion without a hint
             // gives it (a hint walks on across a seam)
-            let wrapped = uv.map(|mut q| {
-                for c in 0..2 {
-                    if let Some(p) = periods[c] {
-                        q[c] = origin[c] + (q[c] - origin[c]).rem_euclid(p);
-                    }
-                }
-                q
-            });
+            let wrapped = uv.map(|q| crate::geom::wrap_periodic(q, periods, origin));
             if let Some(q) = wrapped {
                 for c in 0..2 {
                     lo[c] = lo[c].min(q[c]);

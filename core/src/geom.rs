@@ -241,6 +241,25 @@ impl Surface for Plane {
     }
 }
 
+/// Parameter `x` moved into one period `[origin, origin + period)` of a
+/// periodic direction (unchanged when `period` is `None`).
+pub fn wrap_coordinate(x: f64, period: Option<f64>, origin: f64) -> f64 {
+    match period {
+        Some(p) => origin + (x - origin).rem_euclid(p),
+        None => x,
+    }
+}
+
+/// `(u,v)` moved into the fundamental domain of a surface's periodic
+/// directions ([`Surface::periods`]), `origin` the domain's lower corner
+/// (see [`wrap_coordinate`]).
+pub fn wrap_periodic(uv: [f64; 2], periods: [Option<f64>; 2], origin: [f64; 2]) -> [f64; 2] {
+    [
+        wrap_coordinate(uv[0], periods[0], origin[0]),
+        wrap_coordinate(uv[1], periods[1], origin[1]),
+    ]
+}
+
 /// The point of the segment [a, b] nearest to `p`, in the plane (a
 /// degenerate segment gives `a`).
 pub fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> [f64; 2] {

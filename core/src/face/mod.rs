@@ -598,16 +598,8 @@ impl<'a> FaceJob<'a> {
         }
         let p = mesh.nodes[id as usize].pos;
         let uv = match known {
-            Some(mut uv) => {
-                // a pcurve may end on the far side of a seam (u = 2π)
-                let lo = domain_box(surface).0;
-                for c in 0..2 {
-                    if let Some(p) = surface.periods()[c] {
-                        uv[c] = lo[c] + (uv[c] - lo[c]).rem_euclid(p);
-                    }
-                }
-                uv
-            }
+            // a pcurve may end on the far side of a seam (u = 2π)
+            Some(uv) => crate::geom::wrap_periodic(uv, surface.periods(), domain_box(surface).0),
             None => surface.inverse(&p, b.hint).ok_or_else(|| {
                 MeshError::Invalid(format!(
                     "boundary point ({}, {}, {}) cannot be mapped to the surface's (u,v)",

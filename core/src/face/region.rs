@@ -66,10 +66,7 @@ impl Region {
         let axis = if periods[0].is_some() { 1 } else { 0 };
         let across = 1 - axis;
         let origin = [domain.0[0], domain.0[1]];
-        let wrap = |x: f64, k: usize| match periods[k] {
-            Some(p) => origin[k] + (x - origin[k]).rem_euclid(p),
-            None => x,
-        };
+        let wrap = |x: f64, k: usize| crate::geom::wrap_coordinate(x, periods[k], origin[k]);
         let mut segs = Vec::new();
         let mut lo = [f64::INFINITY; 2];
         let mut hi = [f64::NEG_INFINITY; 2];
@@ -149,13 +146,8 @@ impl Region {
     }
 
     /// `(u,v)` moved into the fundamental domain of the periodic directions.
-    pub fn wrap(&self, mut uv: [f64; 2]) -> [f64; 2] {
-        for (c, period) in self.periods.iter().enumerate() {
-            if let Some(p) = *period {
-                uv[c] = self.origin[c] + (uv[c] - self.origin[c]).rem_euclid(p);
-            }
-        }
-        uv
+    pub fn wrap(&self, uv: [f64; 2]) -> [f64; 2] {
+        crate::geom::wrap_periodic(uv, self.periods, self.origin)
     }
 
     /// Whether (u,v) is inside (even–odd rule over all loops).
