@@ -1065,7 +1065,7 @@ fn remove_slivers(
     failed: &dyn Fn(connect::Connect3dError) -> MeshError,
 ) -> Result<(), MeshError> {
     use tet::sliver::{remove_slivers, remove_slivers_given, SliverParams};
-    use tet::steiner::{steiner_points, with_points, FLAT_Q, STEINER_FEW, STEINER_ROUNDS};
+    use tet::steiner::{steiner_points, with_points, worth_a_round, FLAT_Q, STEINER_ROUNDS};
     let params = SliverParams::default();
     let (local, n_fixed) = sides;
     // the Delaunay tetrahedralization's flat tetrahedra among boundary
@@ -1117,13 +1117,9 @@ fn remove_slivers(
             }),
         );
         let extra = steiner_points(&tm.pos, &work, &tm.d, &inside);
-        let poor_left = work
-            .iter()
-            .any(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t) < crate::quality::POOR_Q);
+        let go_on = worth_a_round(round, &tm.pos, &work, extra.len(), asked);
         work.clear();
-        if extra.is_empty()
-            || (round >= 2 && !poor_left && 2 * extra.len() > asked && extra.len() > STEINER_FEW)
-        {
+        if !go_on {
             break;
         }
         asked = extra.len();

@@ -35,6 +35,27 @@ pub(crate) const STEINER_ROUNDS: usize = 6;
 /// angle the same. With no floor (32 → 0) the smallest angles of as_0080,
 /// as_0079, as_0085 fell by 3–8°.
 pub(crate) const STEINER_FEW: usize = 32;
+
+/// Whether Steiner round `round` (from 0) is run, given the slivers among
+/// fixed nodes it is for (`work`), the points it asks for and those the
+/// round before asked for (see [`STEINER_FEW`]).
+pub(crate) fn worth_a_round(
+    round: usize,
+    pos: &[P3],
+    work: &[[u32; 4]],
+    wanted: usize,
+    asked: usize,
+) -> bool {
+    if wanted == 0 {
+        return false;
+    }
+    round < 2
+        || 2 * wanted <= asked
+        || wanted <= STEINER_FEW
+        || work
+            .iter()
+            .any(|t| crate::measure::tet_radius_ratio_of(pos, t) < crate::quality::POOR_Q)
+}
 /// A tetrahedron with a radius ratio below this is flat: it gets Steiner
 /// points, and the volume is refused rather than meshed with one.
 pub(crate) const FLAT_Q: f64 = 1e-6;
