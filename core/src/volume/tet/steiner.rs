@@ -184,6 +184,35 @@ mod tests {
     use crate::measure::tet_radius_ratio_of;
     use crate::volume::tet::mesh::testing::assert_positive;
 
+    /// The rounds' stop (as_0082's counts: 7,338 and 987 points run, 757
+    /// does not): the first two rounds always run; a later one that asks for about as many points as the last
+    /// stops, unless it asks for a handful or a poor tetrahedron is left;
+    /// nothing asked, nothing run.
+    #[test]
+    fn steiner_rounds_stop_where_they_stop_converging() {
+        let pos = [
+            P3::new(0.0, 0.0, 0.0),
+            P3::new(1.0, 0.0, 0.0),
+            P3::new(0.0, 1.0, 0.0),
+            P3::new(0.0, 0.0, 1.0),
+            P3::new(1.0, 1.0, 1e-9),
+        ];
+        let fair = [[0, 1, 2, 3]];
+        let flat = [[0, 1, 2, 4]];
+        assert!(worth_a_round(0, &pos, &fair, 7338, usize::MAX));
+        assert!(worth_a_round(1, &pos, &fair, 987, 7338));
+        assert!(
+            !worth_a_round(2, &pos, &fair, 757, 987),
+            "the third stops: it asks for about as many as the second"
+        );
+        assert!(!worth_a_round(3, &pos, &fair, 758, 757), "stagnating");
+        assert!(worth_a_round(3, &pos, &fair, 300, 757), "halved");
+        assert!(worth_a_round(3, &pos, &fair, STEINER_FEW, 40), "a handful");
+        assert!(!worth_a_round(3, &pos, &fair, STEINER_FEW + 1, 40));
+        assert!(worth_a_round(3, &pos, &flat, 758, 757), "a poor one left");
+        assert!(!worth_a_round(0, &pos, &fair, 0, usize::MAX));
+    }
+
     /// A rectangle across a wall, coplanar to rounding (the b3d_bottle
     /// case): one Steiner point on each side of it, 0.29·d off its centre,
     /// both dropped where `inside` refuses them, and a second sliver at the
