@@ -5,13 +5,36 @@
 //! rebuilds it every time step and the counting sort is both simpler and
 //! faster for that use than a tree rebuild.
 //!
+//! Where the spacings spread over more than [`MAX_SPREAD`] (a volume whose
+//! boundary was refined to d/64 in places), cells of the least spacing make
+//! a query of the largest walk (d_max/d_min)³ cells, nearly all empty (a
+//! volume of `as_0082` at diag/15 spent minutes there);
+//! [`Grid::for_spacings`] then builds an R*-tree (`rstar`) of the points,
+//! whose queries cost O(log n + hits) at any spread.
+//!
 //! Invariant: `query(p, r, f)` calls `f` for every bubble whose position is
 //! within distance `r` of `p` (and possibly for some farther ones; callers
 //! test the distance).
 
 use crate::geom::P3;
+use rstar::primitives::GeomWithData;
+use rstar::{RTree, AABB};
+
+/// The largest ratio of the largest to the least spacing searched with
+/// cells; beyond it [`Grid::for_spacings`] builds a tree.
+pub const MAX_SPREAD: f64 = 16.0;
 
 pub struct Grid {
+    kind: Kind,
+}
+
+enum Kind {
+    Cells(Cells),
+    Tree(RTree<GeomWithData<[f64; 3], u32>>),
+}
+
+/// Uniform cells, their items in compressed rows.
+struct Cells {
     lo: P3,
     inv_h: f64,
     dims: [usize; 3],
@@ -23,6 +46,68 @@ impl Grid {
     /// Builds a grid over `pos` with cells of side about `h`, enlarged when
     /// needed so that there are at most `max(8·n, 64)` cells.
     pub fn new(pos: &[P3], h: f64) -> Grid {
+        Grid {
+            kind: Kind::Cells(Cells::new(pos, h)),
+        }
+    }
+
+    /// A search over bubbles at `pos` of spacings `d` whose queries reach
+    /// at most `factor` times the querying bubble's spacing: cells of
+    /// `factor` times the least spacing, or a tree where the spacings
+    /// spread over more than [`MAX_SPREAD`].
+    pub fn for_spacings(pos: &[P3], d: &[f64], factor: f64) -> Grid {
+        let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dmax = d.iter().cloned().fold(0.0f64, f64::max);
+        if dmax > MAX_SPREAD * dmin {
+            let points = pos
+                .iter()
+                .enumerate()
+                .map(|(j, p)| GeomWithData::new([p.x, p.y, p.z], j as u32))
+                .collect();
+            Grid {
+                kind: Kind::Tree(RTree::bulk_load(points)),
+            }
+        } else {
+            Grid::new(pos, factor * dmin)
+        }
+    }
+
+    /// The same search over the bubbles from index `first` on alone (the
+    /// free ones, when the fixed come first): the bubbles a fixed one must
+    /// find. With cells, a query visits them in the order this grid does.
+    pub fn only_from(&self, pos: &[P3], first: usize) -> Grid {
+        let kind = match &self.kind {
+            Kind::Cells(c) => Kind::Cells(c.only_from(first as u32)),
+            Kind::Tree(_) => Kind::Tree(RTree::bulk_load(
+                pos.iter()
+                    .enumerate()
+                    .skip(first)
+                    .map(|(j, p)| GeomWithData::new([p.x, p.y, p.z], j as u32))
+                    .collect(),
+            )),
+        };
+        Grid { kind }
+    }
+
+    /// Calls `f(j)` for the bubbles in the cells overlapping the ball (p, r)
+    /// (in the tree: in the cube around it).
+    #[inline]
+    pub fn query(&self, p: &P3, r: f64, mut f: impl FnMut(u32)) {
+        match &self.kind {
+            Kind::Cells(c) => c.query(p, r, f),
+            Kind::Tree(t) => {
+                let cube =
+                    AABB::from_corners([p.x - r, p.y - r, p.z - r], [p.x + r, p.y + r, p.z + r]);
+                for e in t.locate_in_envelope(&cube) {
+                    f(e.data);
+                }
+            }
+        }
+    }
+}
+
+impl Cells {
+    fn new(pos: &[P3], h: f64) -> Cells {
         let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
         let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
         for p in pos {
@@ -72,7 +157,7 @@ impl Grid {
             items[fill[c] as usize] = i as u32;
             fill[c] += 1;
         }
-        Grid {
+        Cells {
             lo,
             inv_h,
             dims,
@@ -81,9 +166,30 @@ impl Grid {
         }
     }
 
-    /// Calls `f(j)` for the bubbles in the cells overlapping the ball (p, r).
+    /// The same cells with only the items from `first` on, in their order.
+    fn only_from(&self, first: u32) -> Cells {
+        let mut start = Vec::with_capacity(self.start.len());
+        let mut items = Vec::new();
+        start.push(0);
+        for w in self.start.windows(2) {
+            items.extend(
+                self.items[w[0] as usize..w[1] as usize]
+                    .iter()
+                    .filter(|&&j| j >= first),
+            );
+            start.push(items.len() as u32);
+        }
+        Cells {
+            lo: self.lo,
+            inv_h: self.inv_h,
+            dims: self.dims,
+            start,
+            items,
+        }
+    }
+
     #[inline]
-    pub fn query(&self, p: &P3, r: f64, mut f: impl FnMut(u32)) {
+    fn query(&self, p: &P3, r: f64, mut f: impl FnMut(u32)) {
         let mut a = [0usize; 3];
         let mut b = [0usize; 3];
         for k in 0..3 {
@@ -128,6 +234,37 @@ mod tests {
         let g = Grid::new(&pts, 0.03);
         for q in pts.iter().take(200) {
             let r = 0.05;
+            let mut found = Vec::new();
+            g.query(q, r, |j| found.push(j));
+            for (j, p) in pts.iter().enumerate() {
+                if (p - q).norm() <= r {
+                    assert!(found.contains(&(j as u32)));
+                }
+            }
+        }
+    }
+
+    /// Spacings spreading over more than `MAX_SPREAD` take the tree, which
+    /// finds every point within the radius as the cells do.
+    #[test]
+    fn a_wide_spread_of_spacings_finds_every_point_within_radius() {
+        let mut pts = Vec::new();
+        let mut d = Vec::new();
+        let mut s = 99u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s % 1_000_000) as f64 / 1_000_000.0
+        };
+        for k in 0..3000 {
+            pts.push(P3::new(rnd(), rnd(), 0.1 * rnd()));
+            d.push(if k % 10 == 0 { 0.2 } else { 0.002 });
+        }
+        let g = Grid::for_spacings(&pts, &d, 1.5);
+        assert!(matches!(g.kind, Kind::Tree(_)));
+        for (q, &dq) in pts.iter().zip(&d).take(300) {
+            let r = 1.5 * dq;
             let mut found = Vec::new();
             g.query(q, r, |j| found.push(j));
             for (j, p) in pts.iter().enumerate() {

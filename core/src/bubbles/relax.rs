@@ -104,10 +104,15 @@ impl<'a, C: Carrier> System<'a, C> {
         let grid = self.grid();
         let reach = force::CUTOFF + SKIN;
         let nf = self.n_fixed;
+        // a fixed bubble looks for free ones only (beside a boundary
+        // refined to d/64, a fixed bubble of the requested spacing has
+        // thousands of fixed ones in reach)
+        let free = grid.only_from(&self.pos, nf);
         let mut pairs: Vec<(u32, u32)> = Vec::new();
         for i in 0..self.n() {
             let (pi, di) = (self.pos[i], self.d[i]);
-            grid.query(&pi, reach * di, |j| {
+            let search = if i < nf { &free } else { &grid };
+            search.query(&pi, reach * di, |j| {
                 let j = j as usize;
                 let dj = self.d[j];
                 if !(dj < di || (dj == di && j > i)) || (i < nf && j < nf) {

@@ -243,8 +243,7 @@ impl<'a, C: Carrier> System<'a, C> {
 
     /// A neighbour grid over the current positions.
     pub fn grid(&self) -> Grid {
-        let dmin = self.d.iter().cloned().fold(f64::INFINITY, f64::min);
-        Grid::new(&self.pos, force::CUTOFF * dmin)
+        Grid::for_spacings(&self.pos, &self.d, force::CUTOFF)
     }
 
     /// Every interacting pair (w < 1.5) with at least one free bubble, each
@@ -257,12 +256,15 @@ impl<'a, C: Carrier> System<'a, C> {
     pub fn pairs(&self, grid: &Grid, out: &mut Vec<Pair>, mask: Option<&[bool]>) {
         out.clear();
         let nf = self.n_fixed;
+        // a fixed bubble looks for free ones only (see `neighbours`)
+        let free = grid.only_from(&self.pos, nf);
         for i in 0..self.n() {
             if mask.is_some_and(|m| !m[i]) {
                 continue;
             }
             let (pi, di) = (self.pos[i], self.d[i]);
-            grid.query(&pi, force::CUTOFF * di, |j| {
+            let search = if i < nf { &free } else { grid };
+            search.query(&pi, force::CUTOFF * di, |j| {
                 let j = j as usize;
                 if mask.is_some_and(|m| !m[j]) {
                     return;

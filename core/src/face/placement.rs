@@ -7,6 +7,7 @@
 
 use crate::geom::{P3, V3};
 
+use crate::bubbles::balls::Balls;
 use crate::bubbles::constraint::Carrier;
 pub(crate) use crate::bubbles::MAX_BUBBLES_PER_ENTITY;
 use crate::error::{check_spacing, MeshError};
@@ -451,8 +452,7 @@ pub fn strip_rows<C: Carrier>(
     }
     let grid = BoundaryGrid::new(ring);
     let (free_pos, free_d) = free;
-    let free_dmin = free_d.iter().cloned().fold(f64::INFINITY, f64::min);
-    let free_grid = crate::bubbles::grid::Grid::new(free_pos, 1.5 * free_dmin);
+    let free_points = Balls::new(free_pos, |_| 0.0);
     for &[a, b] in ring.directed {
         let Some((ap, j, width)) = across_strip(carrier, ring, &grid, a, b, d_at)? else {
             continue;
@@ -462,13 +462,7 @@ pub fn strip_rows<C: Carrier>(
         }
         let apex = carrier.point(ap.apex_uv);
         let to_j = (ring.pos[j] - apex).norm();
-        let mut free_nearer = false;
-        free_grid.query(&apex, to_j, |k| {
-            if (free_pos[k as usize] - apex).norm() < to_j {
-                free_nearer = true;
-            }
-        });
-        if free_nearer {
+        if free_points.any(&apex, to_j, |k| (free_pos[k] - apex).norm() < to_j) {
             continue;
         }
         let Some((m_uv, p)) = halfway(carrier, &ap, width) else {
@@ -490,21 +484,17 @@ pub fn strip_rows<C: Carrier>(
 /// moved by the improvement.
 pub const STRIP_ROW_GAIN: f64 = 0.03;
 
-/// The boundary bubbles of a ring in a grid (cells of 1.5 times their
-/// least spacing), with their largest spacing, for the searches across a
-/// strip.
+/// The boundary bubbles of a ring as balls of radius d/2 (their spacings
+/// may span orders of magnitude, see [`Balls`]), for the searches across
+/// a strip.
 struct BoundaryGrid {
-    grid: crate::bubbles::grid::Grid,
-    dmax: f64,
+    balls: Balls,
 }
 
 impl BoundaryGrid {
     fn new(ring: &Ring<'_>) -> Self {
-        let dmin = ring.d.iter().cloned().fold(f64::INFINITY, f64::min);
-        let dmax = ring.d.iter().cloned().fold(0.0f64, f64::max);
         BoundaryGrid {
-            grid: crate::bubbles::grid::Grid::new(ring.pos, 1.5 * dmin),
-            dmax,
+            balls: Balls::new(ring.pos, |k| 0.5 * ring.d[k]),
         }
     }
 
@@ -518,14 +508,10 @@ impl BoundaryGrid {
         d_at: &mut FaceSpacing<'_>,
     ) -> Result<Option<Seed>, MeshError> {
         let d = d_at(&p, uv)?;
-        let mut clear = true;
-        self.grid
-            .query(&p, STRIP_CLEARANCE * 0.5 * (d + self.dmax), |k| {
-                let k = k as usize;
-                if (ring.pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (d + ring.d[k]) {
-                    clear = false;
-                }
-            });
+        // STRIP_CLEARANCE < 1: the balls of radius d/2 reach every blocker
+        let clear = !self.balls.any(&p, 0.5 * d, |k| {
+            (ring.pos[k] - p).norm() < STRIP_CLEARANCE * 0.5 * (d + ring.d[k])
+        });
         Ok(clear.then_some(Seed {
             pos: p,
             params: uv,
@@ -566,15 +552,16 @@ fn across_strip<C: Carrier>(
     }
     let apex = carrier.point(ap.apex_uv);
     let mut across: Option<(usize, f64)> = None;
-    grid.grid.query(&apex, 0.5 * (ap.r0 + grid.dmax), |j| {
-        let j = j as usize;
+    grid.balls.each(&apex, 0.5 * ap.r0, |j| {
         let dist = (pos[j] - apex).norm();
         let to_j = pos[j] - ap.mid;
+        // the nearest, the lowest index among equally near ones (the
+        // search's order does not decide)
         if j != a
             && j != b
             && dist < 0.5 * (ap.r0 + d[j])
             && to_j.dot(&ap.inward) >= std::f64::consts::FRAC_1_SQRT_2 * to_j.norm()
-            && across.is_none_or(|(_, best)| dist < best)
+            && across.is_none_or(|(k, best)| dist < best || (dist == best && j < k))
         {
             across = Some((j, dist));
         }
@@ -605,49 +592,28 @@ pub(crate) fn uncrowded(
     fixed_d: &[f64],
     check_seeds: bool,
 ) -> Vec<Seed> {
-    let dmin_fixed = fixed_d.iter().cloned().fold(f64::INFINITY, f64::min);
-    let dmax_fixed = fixed_d.iter().cloned().fold(0.0f64, f64::max);
-    let fixed_grid = crate::bubbles::grid::Grid::new(fixed_pos, 1.5 * dmin_fixed);
-    let crowds = |p: &P3,
-                  d: f64,
-                  pos: &[P3],
-                  ds: &[f64],
-                  g: &crate::bubbles::grid::Grid,
-                  reach: f64,
-                  skip: &dyn Fn(usize) -> bool| {
-        let mut hit = false;
-        g.query(p, 0.75 * 0.5 * (d + reach), |j| {
-            let j = j as usize;
-            if !hit && !skip(j) && (pos[j] - p).norm() < 0.75 * 0.5 * (d + ds[j]) {
-                hit = true;
-            }
-        });
-        hit
-    };
+    // each bubble as a ball of radius CROWD·d/2: two crowd each other when
+    // their balls overlap (the spacings may span orders of magnitude, see
+    // bubbles::balls)
+    const CROWD: f64 = 0.75;
+    let fixed = Balls::new(fixed_pos, |j| CROWD * 0.5 * fixed_d[j]);
     let mut keep: Vec<bool> = all
         .iter()
         .map(|s| {
-            !crowds(
-                &s.pos,
-                s.d,
-                fixed_pos,
-                fixed_d,
-                &fixed_grid,
-                dmax_fixed,
-                &|_| false,
-            )
+            !fixed.any(&s.pos, CROWD * 0.5 * s.d, |j| {
+                (fixed_pos[j] - s.pos).norm() < CROWD * 0.5 * (s.d + fixed_d[j])
+            })
         })
         .collect();
     if check_seeds {
         let spos: Vec<P3> = all.iter().map(|s| s.pos).collect();
-        let sd: Vec<f64> = all.iter().map(|s| s.d).collect();
-        let dmin = sd.iter().cloned().fold(f64::INFINITY, f64::min);
-        let dmax = sd.iter().cloned().fold(0.0f64, f64::max);
-        let g = crate::bubbles::grid::Grid::new(&spos, 1.5 * dmin);
+        let seeds = Balls::new(&spos, |j| CROWD * 0.5 * all[j].d);
         for i in 0..all.len() {
             if keep[i] {
-                let earlier_kept = |j: usize| !(j < i && keep[j]);
-                if crowds(&spos[i], sd[i], &spos, &sd, &g, dmax, &earlier_kept) {
+                let (p, d) = (spos[i], all[i].d);
+                if seeds.any(&p, CROWD * 0.5 * d, |j| {
+                    j < i && keep[j] && (spos[j] - p).norm() < CROWD * 0.5 * (d + all[j].d)
+                }) {
                     keep[i] = false;
                 }
             }

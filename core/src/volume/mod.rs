@@ -598,8 +598,16 @@ pub(super) fn recover_boundary(
     mesh: &mut crate::mesh::Mesh,
 ) -> (usize, split::Splits) {
     let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
-    let flips = recover::flip_to_delaunay(mesh, &faces);
-    (flips, split::split_to_delaunay(model, mesh, vi))
+    let idx = recover::triangles_of(mesh, &faces);
+    let mut delaunay = recover::BoundaryDelaunay::of(mesh, &idx);
+    let flips = match delaunay.as_mut() {
+        Some(bd) => recover::flip_with(mesh, &idx, bd.faces()),
+        None => 0,
+    };
+    (
+        flips,
+        split::split_to_delaunay(model, mesh, vi, delaunay.as_mut()),
+    )
 }
 
 /// Meshes volume `vi` whose faces are meshed in `mesh`: a BCC start where

@@ -41,32 +41,79 @@ pub(crate) fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
-/// The faces (sorted global node ids) of the Delaunay tetrahedralization
-/// of the nodes of the triangles `idx` of `mesh`; `None` when those nodes
-/// cannot be tetrahedralized or two of them coincide (the volume stage
-/// reports that itself).
-pub(crate) fn delaunay_faces(mesh: &Mesh, idx: &[usize]) -> Option<HashSet<[u32; 3]>> {
-    let mut nodes: Vec<u32> = idx.iter().flat_map(|&k| mesh.triangles[k].nodes).collect();
-    nodes.sort_unstable();
-    nodes.dedup();
-    let coords: Vec<[f64; 3]> = nodes
-        .iter()
-        .map(|&g| {
-            let p = mesh.nodes[g as usize].pos;
-            [p.x, p.y, p.z]
+/// Faces of a tetrahedralization as sorted global node ids.
+pub(crate) type FaceSet = rustc_hash::FxHashSet<[u32; 3]>;
+
+/// The Delaunay tetrahedralization of a volume's boundary nodes, kept as
+/// split nodes are added ([`BoundaryDelaunay::add`]) instead of made again:
+/// the tetrahedralization is unique under `bubblemesh_delaunay`'s symbolic
+/// perturbation, so adding a node gives the tetrahedra of the enlarged set
+/// built from scratch, and turning triangles (which keeps the nodes)
+/// leaves it as it is.
+pub(crate) struct BoundaryDelaunay {
+    dt: bubblemesh_delaunay::Delaunay3,
+    /// Global node id of each vertex of `dt`.
+    global: Vec<u32>,
+    /// The faces of `dt`, when they are up to date.
+    faces: Option<FaceSet>,
+}
+
+impl BoundaryDelaunay {
+    /// The tetrahedralization of the nodes of the triangles `idx` of
+    /// `mesh`; `None` when those nodes cannot be tetrahedralized or two of
+    /// them coincide (the volume stage reports that itself).
+    pub(crate) fn of(mesh: &Mesh, idx: &[usize]) -> Option<Self> {
+        let mut global: Vec<u32> = idx.iter().flat_map(|&k| mesh.triangles[k].nodes).collect();
+        global.sort_unstable();
+        global.dedup();
+        let coords: Vec<[f64; 3]> = global
+            .iter()
+            .map(|&g| {
+                let p = mesh.nodes[g as usize].pos;
+                [p.x, p.y, p.z]
+            })
+            .collect();
+        let dt = bubblemesh_delaunay::Delaunay3::new(&coords).ok()?;
+        if !dt.duplicates().is_empty() {
+            return None;
+        }
+        Some(BoundaryDelaunay {
+            dt,
+            global,
+            faces: None,
         })
-        .collect();
-    let dt = bubblemesh_delaunay::tetrahedralize(&coords).ok()?;
-    if !dt.duplicates.is_empty() {
-        return None;
     }
-    let mut delaunay: HashSet<[u32; 3]> = HashSet::with_capacity(4 * dt.tets.len());
-    for t in &dt.tets {
-        for f in &TET_FACES {
-            delaunay.insert(sorted3(f.map(|i| nodes[t[i] as usize])));
+
+    /// Adds node `g` of `mesh`; `false` when it coincides with a node
+    /// already there (then nothing is added and the caller stops, as
+    /// [`BoundaryDelaunay::of`] would have refused the set).
+    pub(crate) fn add(&mut self, mesh: &Mesh, g: u32) -> bool {
+        let p = mesh.nodes[g as usize].pos;
+        match self.dt.insert([p.x, p.y, p.z], None) {
+            Ok(id) => {
+                debug_assert_eq!(id as usize, self.global.len());
+                self.global.push(g);
+                self.faces = None;
+                true
+            }
+            Err(_) => false,
         }
     }
-    Some(delaunay)
+
+    /// The faces of the tetrahedralization (sorted global node ids).
+    pub(crate) fn faces(&mut self) -> &FaceSet {
+        let (dt, global) = (&self.dt, &self.global);
+        self.faces.get_or_insert_with(|| {
+            let mut set = FaceSet::default();
+            set.reserve(2 * dt.num_tets() + 16);
+            for t in dt.tets() {
+                for f in &TET_FACES {
+                    set.insert(sorted3(f.map(|i| global[t[i] as usize])));
+                }
+            }
+            set
+        })
+    }
 }
 
 /// The triangles `idx` of `mesh` by undirected edge.
@@ -164,19 +211,31 @@ impl Quad {
 /// whose quadrilateral's other diagonal is Delaunay in 3D, as the module
 /// docs say. Returns how many pairs were turned; 0 when the boundary nodes
 /// cannot be tetrahedralized (the volume stage reports that itself).
+#[cfg(test)]
 pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
-    let idx: Vec<usize> = (0..mesh.triangles.len())
+    let idx = triangles_of(mesh, faces);
+    match BoundaryDelaunay::of(mesh, &idx) {
+        Some(mut bd) => flip_with(mesh, &idx, bd.faces()),
+        None => 0,
+    }
+}
+
+/// The triangles of `mesh` on the faces `faces`.
+pub(crate) fn triangles_of(mesh: &Mesh, faces: &HashSet<u32>) -> Vec<usize> {
+    (0..mesh.triangles.len())
         .filter(|&k| {
             let e = mesh.triangles[k].entity;
             e.dim == 2 && faces.contains(&e.id)
         })
-        .collect();
+        .collect()
+}
+
+/// [`flip_to_delaunay`] on the triangles `idx`, with `delaunay` the faces
+/// of the Delaunay tetrahedralization of their nodes.
+pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> usize {
     if idx.is_empty() {
         return 0;
     }
-    let Some(delaunay) = delaunay_faces(mesh, &idx) else {
-        return 0;
-    };
     let missing = |mesh: &Mesh, k: usize| !delaunay.contains(&sorted3(mesh.triangles[k].nodes));
     if !idx.iter().any(|&k| missing(mesh, k)) {
         return 0;
@@ -191,7 +250,7 @@ pub(crate) fn flip_to_delaunay(mesh: &mut Mesh, faces: &HashSet<u32>) -> usize {
         let by_edge = by_edge(mesh, idx.iter().copied());
         let mut touched: HashSet<usize> = HashSet::new();
         let mut flips: Vec<(usize, [u32; 3], usize, [u32; 3])> = Vec::new();
-        for &k in &idx {
+        for &k in idx {
             if touched.contains(&k) || !missing(mesh, k) {
                 continue;
             }
@@ -328,5 +387,54 @@ mod tests {
         assert_eq!(flip_to_delaunay(&mut mesh, &[0].into_iter().collect()), 0);
         let after: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
         assert_eq!(before, after);
+    }
+
+    /// Nodes added one by one to a boundary's tetrahedralization give the
+    /// faces of the tetrahedralization made from scratch — on a cube's
+    /// lattice, whose points are co-spherical by the dozen (the perturbation
+    /// decides) — and a node on one already there is refused.
+    #[test]
+    fn added_nodes_give_the_faces_made_from_scratch() {
+        let mut mesh = Mesh::default();
+        let node = |x: f64, y: f64, z: f64| Node {
+            pos: P3::new(x, y, z),
+            entity: EntityRef::new(2, 0),
+            params: [0.0, 0.0],
+        };
+        for i in 0..4 {
+            for j in 0..4 {
+                for k in 0..4 {
+                    mesh.nodes.push(node(i as f64, j as f64, k as f64));
+                }
+            }
+        }
+        let first = mesh.nodes.len() as u32;
+        // the triangles only say which nodes are the boundary's
+        let chunk = |a: u32| tri([a, a + 1, a + 2], 0);
+        for a in (0..first - 2).step_by(3) {
+            mesh.triangles.push(chunk(a));
+        }
+        mesh.triangles
+            .push(tri([first - 3, first - 2, first - 1], 0));
+        let idx: Vec<usize> = (0..mesh.triangles.len()).collect();
+        let mut bd = BoundaryDelaunay::of(&mesh, &idx).unwrap();
+        // midpoints of lattice edges and cell centres: more co-spherical sets
+        for p in [
+            [0.5, 0.0, 0.0],
+            [1.5, 1.5, 1.5],
+            [2.0, 2.5, 3.0],
+            [0.5, 0.5, 0.0],
+        ] {
+            mesh.nodes.push(node(p[0], p[1], p[2]));
+            assert!(bd.add(&mesh, mesh.nodes.len() as u32 - 1));
+        }
+        let n = mesh.nodes.len() as u32;
+        mesh.triangles.push(tri([first, first + 1, first + 2], 0));
+        mesh.triangles.push(tri([first + 1, first + 2, n - 1], 0));
+        let idx: Vec<usize> = (0..mesh.triangles.len()).collect();
+        let mut scratch = BoundaryDelaunay::of(&mesh, &idx).unwrap();
+        assert_eq!(bd.faces(), scratch.faces());
+        mesh.nodes.push(node(1.5, 1.5, 1.5));
+        assert!(!bd.add(&mesh, n), "a node on one already there");
     }
 }

@@ -27,7 +27,7 @@
 //! after which the triangles still missing go to the refinement by places
 //! ([`crate::engine::refine`]), as before.
 
-use super::recover::{by_edge, delaunay_faces, key, sorted3, Quad};
+use super::recover::{by_edge, key, sorted3, triangles_of, BoundaryDelaunay, Quad};
 use crate::geom::P3;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -69,8 +69,15 @@ pub struct Splits {
 }
 
 /// Splits the boundary of volume `vi` of `model` in `mesh` as the module
-/// docs say. The new nodes are appended to `mesh.nodes`.
-pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Splits {
+/// docs say. The new nodes are appended to `mesh.nodes`. `delaunay` is the
+/// tetrahedralization of the boundary's nodes (`None`: they have none, and
+/// nothing is split); the split nodes are added to it.
+pub(crate) fn split_to_delaunay(
+    model: &Model,
+    mesh: &mut Mesh,
+    vi: usize,
+    delaunay: Option<&mut BoundaryDelaunay>,
+) -> Splits {
     let faces: HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
     // faces of the volumes meshed before: their triangles are in tetrahedra
     let locked: HashSet<u32> = model.volumes[..vi]
@@ -79,15 +86,10 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
         .collect();
     let mut out = Splits::default();
     let mut per: HashMap<EntityRef, u32> = HashMap::new();
-    let ours = |mesh: &Mesh| -> Vec<usize> {
-        (0..mesh.triangles.len())
-            .filter(|&k| {
-                let e = mesh.triangles[k].entity;
-                e.dim == 2 && faces.contains(&e.id)
-            })
-            .collect()
+    let idx = triangles_of(mesh, &faces);
+    let Some(bd) = delaunay else {
+        return out;
     };
-    let idx = ours(mesh);
     if idx.is_empty() {
         return out;
     }
@@ -95,10 +97,8 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
     let min_len = MIN_EDGE * diagonal(mesh, &idx);
     let mut best = (usize::MAX, 0);
     for round in 0..MAX_ROUNDS {
-        let idx = ours(mesh);
-        let Some(delaunay) = delaunay_faces(mesh, &idx) else {
-            break;
-        };
+        let idx = triangles_of(mesh, &faces);
+        let delaunay = bd.faces();
         let missing: Vec<usize> = idx
             .iter()
             .copied()
@@ -171,6 +171,12 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
         if done == 0 {
             break;
         }
+        // a split node on one already there: the boundary cannot be
+        // tetrahedralized (the volume stage reports it)
+        let first_new = mesh.nodes.len() - done;
+        if !(first_new..mesh.nodes.len()).all(|g| bd.add(mesh, g as u32)) {
+            break;
+        }
         // the split faces' triangles back to Delaunay in their surface
         // (a bisected long edge leaves long thin triangles beside it,
         // whose spheres are blocked again), then the co-spherical
@@ -182,7 +188,8 @@ pub(crate) fn split_to_delaunay(model: &Model, mesh: &mut Mesh, vi: usize) -> Sp
             .map(|e| e.id)
             .collect();
         lawson_flips(mesh, &split_faces);
-        super::recover::flip_to_delaunay(mesh, &faces);
+        let idx = triangles_of(mesh, &faces);
+        super::recover::flip_with(mesh, &idx, bd.faces());
     }
     let mut by: Vec<[u32; 3]> = per
         .into_iter()

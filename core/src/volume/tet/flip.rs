@@ -97,16 +97,39 @@ impl<'a> FlipState<'a> {
         }
     }
 
-    /// The live tets containing every node of `vs`, written to `out`;
-    /// their number, or `None` when there are more than `out` holds (no
-    /// allocation: this is asked for every edge and face of every bad tet).
-    fn around_at_most(&self, vs: &[u32], out: &mut [u32]) -> Option<usize> {
-        let v0 = vs[0] as usize;
+    /// The tets listed around node `v` (dead ones too), in increasing
+    /// order: the initial ones, then those added by flips.
+    fn listed(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
+        let v0 = v as usize;
         let initial = &self.csr[self.start[v0] as usize..self.start[v0 + 1] as usize];
-        let added = self.extra.get(&vs[0]).map(|x| &x[..]).unwrap_or(&[]);
+        let added = self.extra.get(&v).map(|x| &x[..]).unwrap_or(&[]);
+        initial.iter().chain(added).copied()
+    }
+
+    /// How many tets are listed around node `v`.
+    fn listed_len(&self, v: u32) -> usize {
+        let v0 = v as usize;
+        (self.start[v0 + 1] - self.start[v0]) as usize + self.extra.get(&v).map_or(0, Vec::len)
+    }
+
+    /// The node of `vs` with the shortest list: a tip of a thin wedge
+    /// gathers thousands of flat tets, and reading its list for every edge
+    /// at it was nearly all of a sliver pass (`as_0082` at diag/15).
+    fn pivot(&self, vs: &[u32]) -> u32 {
+        vs.iter()
+            .copied()
+            .min_by_key(|&v| self.listed_len(v))
+            .unwrap_or(vs[0])
+    }
+
+    /// The live tets containing every node of `vs`, written to `out` in
+    /// increasing order; their number, or `None` when there are more than
+    /// `out` holds (no allocation: this is asked for every edge and face of
+    /// every bad tet).
+    fn around_at_most(&self, vs: &[u32], out: &mut [u32]) -> Option<usize> {
         let mut n = 0;
-        for &t in initial.iter().chain(added) {
-            if !self.dead[t as usize] && vs[1..].iter().all(|v| self.tets[t as usize].contains(v)) {
+        for t in self.listed(self.pivot(vs)) {
+            if !self.dead[t as usize] && vs.iter().all(|v| self.tets[t as usize].contains(v)) {
                 *out.get_mut(n)? = t;
                 n += 1;
             }
@@ -116,13 +139,12 @@ impl<'a> FlipState<'a> {
 
     /// Whether a live tet has the edge (a, b).
     fn any_around(&self, a: u32, b: u32) -> bool {
-        let v0 = a as usize;
-        let initial = &self.csr[self.start[v0] as usize..self.start[v0 + 1] as usize];
-        let added = self.extra.get(&a).map(|x| &x[..]).unwrap_or(&[]);
-        initial
-            .iter()
-            .chain(added)
-            .any(|&t| !self.dead[t as usize] && self.tets[t as usize].contains(&b))
+        self.listed(self.pivot(&[a, b])).any(|t| {
+            !self.dead[t as usize] && {
+                let tt = &self.tets[t as usize];
+                tt.contains(&a) && tt.contains(&b)
+            }
+        })
     }
 
     /// Sign of det(b−a, c−a, d−a) (exact).
