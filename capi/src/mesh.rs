@@ -132,7 +132,9 @@ fn code_of(e: &MeshError) -> bm_result {
         }
         MeshError::Unsupported(_) => bm_result::BM_ERR_UNSUPPORTED,
         MeshError::Connect(_) => bm_result::BM_ERR_MESH,
-        MeshError::In { source, .. } => code_of(source),
+        MeshError::In { source, .. } | MeshError::RefinementStopped { source, .. } => {
+            code_of(source)
+        }
         _ => bm_result::BM_ERR_MESH,
     }
 }

@@ -147,3 +147,37 @@ fn boundary_of_as_0048_is_split_to_delaunay_without_refinement_rounds() {
     tris.sort_unstable();
     assert_eq!(outer, tris, "the tetrahedra's boundary is the surface mesh");
 }
+
+#[test]
+fn places_that_keep_failing_a_level_finer_stop_at_the_growth_bound() {
+    // at d = diag/15 = 19.11 a tip of as_0082 where three faces meet at a
+    // few degrees leaves boundary triangles missing at every level of
+    // refinement (the finer mesh is the coarser one scaled down): before
+    // the bound, seven rounds ran six minutes into a mesh with 7,507 flat
+    // tetrahedra; now the run stops once the surface has grown fourfold,
+    // says why and where, and writes nothing
+    let Some(p) = realstep("as_0082_MVE_100-3_AP203.stp") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.msh");
+    let o = Command::new(env!("CARGO_BIN_EXE_bubblemesh"))
+        .args(["mesh", p.to_str().unwrap(), "-o"])
+        .arg(&out)
+        .args(["--size", "19.11", "--dim", "3", "--threads", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    for says in [
+        "as_0082_MVE_100-3_AP203.stp",
+        "boundary triangle(s) are not faces of the tetrahedralization",
+        "refinement stopped",
+        "grew the surface mesh from",
+        "very sharp angle",
+        "the place there: within",
+    ] {
+        assert!(err.contains(says), "{says:?} not in: {err}");
+    }
+    assert!(!out.exists(), "a failed run leaves nothing behind");
+}

@@ -56,6 +56,17 @@ pub enum MeshError {
     /// written.
     #[error("{0}")]
     Check(#[from] crate::verify::CheckError),
+    /// Refinement by places ([`crate::engine::refine`]) stopped before it
+    /// cured `source`: the surface mesh grew past its bound while the same
+    /// boundary triangles kept missing.
+    #[error("{source}; refinement stopped: {why}")]
+    RefinementStopped {
+        /// Why it stopped, with the places that kept failing.
+        why: String,
+        /// The last attempt's error.
+        #[source]
+        source: Box<MeshError>,
+    },
     /// An error inside an entity: `what` names it.
     #[error("{what}: {source}")]
     In {

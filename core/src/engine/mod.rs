@@ -130,6 +130,8 @@ pub fn mesh_model(
     // faces whose inputs did not change since the last attempt are replayed
     let mut memos: memo::FaceMemos = Vec::new();
     let mut edge_memos: memo::EdgeMemos = Vec::new();
+    // the surface triangles of the first attempt that asked for places
+    let mut before_places: Option<usize> = None;
     loop {
         rounds += 1;
         let (cap_state, edge_cap_state) = cap_states(model, capped.as_ref());
@@ -197,6 +199,7 @@ pub fn mesh_model(
                         // and the refinement made with it: from here on the
                         // run is the one without the cap
                         refinement = refine::Refinement::new(model);
+                        before_places = None;
                         continue;
                     }
                 }
@@ -230,6 +233,25 @@ pub fn mesh_model(
                         )
                     })
                     .unzip();
+                if !failed.spots.is_empty() && failed.triangles > 0 {
+                    let first = *before_places.get_or_insert(failed.triangles);
+                    if failed.triangles as f64 > refine::PLACE_GROWTH * first as f64 {
+                        return Err(MeshError::RefinementStopped {
+                            why: format!(
+                                "meshing the places where this happens finer grew the surface \
+                                 mesh from {first} to {} triangles in {} rounds without curing \
+                                 them: faces there meet at a very sharp angle or close a wall \
+                                 far thinner than the spacing (the place there: {})",
+                                failed.triangles,
+                                rounds - 1,
+                                refinement
+                                    .place_near(&failed.spots[0].0)
+                                    .unwrap_or_default()
+                            ),
+                            source: Box::new(failed.error),
+                        });
+                    }
+                }
                 let bumped = if !failed.spots.is_empty() {
                     let d_at = |p: &crate::geom::P3| {
                         spacing.spacing(&SpacingQuery {
@@ -287,6 +309,9 @@ struct Failed {
     edges: Vec<u32>,
     /// Balls (centre, radius) to mesh finer instead of whole faces.
     spots: Vec<(crate::geom::P3, f64)>,
+    /// Triangles of the attempt's surface mesh when a volume failed (0:
+    /// it failed before).
+    triangles: usize,
 }
 
 impl From<MeshError> for Box<Failed> {
@@ -323,6 +348,7 @@ impl From<MeshError> for Box<Failed> {
             reasons: vec![],
             edges,
             spots,
+            triangles: 0,
         })
     }
 }
@@ -395,7 +421,11 @@ fn mesh_once(
     }
     // 4. volumes
     if dim >= 3 {
-        a.volumes(volume_spacing)?;
+        if let Err(e) = a.volumes(volume_spacing) {
+            let mut failed: Box<Failed> = e.into();
+            failed.triangles = a.mesh.triangles.len();
+            return Err(failed);
+        }
     }
     let Attempt {
         mesh, mut report, ..
@@ -718,6 +748,7 @@ impl Attempt<'_> {
                 reasons,
                 edges: vec![],
                 spots: vec![],
+                triangles: 0,
             }));
         }
         Ok(())
