@@ -1073,7 +1073,7 @@ fn remove_slivers(
     failed: &dyn Fn(connect::Connect3dError) -> MeshError,
 ) -> Result<(), MeshError> {
     use tet::sliver::{remove_slivers, remove_slivers_given, SliverParams};
-    use tet::steiner::{steiner_points, with_points, worth_a_round, FLAT_Q, STEINER_ROUNDS};
+    use tet::steiner::{steiner_points, with_points, SteinerRounds, FLAT_Q, STEINER_ROUNDS};
     let params = SliverParams::default();
     let (local, n_fixed) = sides;
     // the Delaunay tetrahedralization's flat tetrahedra among boundary
@@ -1115,8 +1115,8 @@ fn remove_slivers(
         Some(qs) => remove_slivers_given(tm, &params, qs),
         None => remove_slivers(tm, &params),
     };
-    // the points the last round asked for (see STEINER_FEW)
-    let mut asked = usize::MAX;
+    // when to stop (see STEINER_FEW)
+    let mut rounds = SteinerRounds::default();
     for round in 0..STEINER_ROUNDS {
         // and those that the sliver pass left
         work.extend(
@@ -1125,12 +1125,11 @@ fn remove_slivers(
             }),
         );
         let extra = steiner_points(&tm.pos, &work, &tm.d, &inside);
-        let go_on = worth_a_round(round, &tm.pos, &work, extra.len(), asked);
+        let go_on = rounds.worth_a_round(round, &tm.pos, &work, extra.len());
         work.clear();
         if !go_on {
             break;
         }
-        asked = extra.len();
         rep.steiner += extra.len();
         let extra_n = extra.len();
         // the kept nodes, then the new ones; fixed nodes keep their
