@@ -233,24 +233,9 @@ pub fn mesh_model(
                         )
                     })
                     .unzip();
-                if !failed.spots.is_empty() && failed.triangles > 0 {
-                    let first = *before_places.get_or_insert(failed.triangles);
-                    if failed.triangles as f64 > refine::PLACE_GROWTH * first as f64 {
-                        return Err(MeshError::RefinementStopped {
-                            why: format!(
-                                "meshing the places where this happens finer grew the surface \
-                                 mesh from {first} to {} triangles in {} rounds without curing \
-                                 them: faces there meet at a very sharp angle or close a wall \
-                                 far thinner than the spacing (the place there: {})",
-                                failed.triangles,
-                                rounds - 1,
-                                refinement
-                                    .place_near(&failed.spots[0].0)
-                                    .unwrap_or_default()
-                            ),
-                            source: Box::new(failed.error),
-                        });
-                    }
+                if let Some(why) = places_stop(&failed, &mut before_places, rounds, &refinement) {
+                    let source = Box::new(failed.error);
+                    return Err(MeshError::RefinementStopped { why, source });
                 }
                 let bumped = if !failed.spots.is_empty() {
                     let d_at = |p: &crate::geom::P3| {
@@ -276,6 +261,34 @@ pub fn mesh_model(
             }
         }
     }
+}
+
+/// Why refinement by places stops after attempt `rounds` failed as
+/// `failed` (see [`refine::PLACE_GROWTH`]), or `None` to go on.
+/// `before_places` is the surface triangles of the first attempt that
+/// asked for places (set by the first such).
+fn places_stop(
+    failed: &Failed,
+    before_places: &mut Option<usize>,
+    rounds: usize,
+    refinement: &refine::Refinement,
+) -> Option<String> {
+    if failed.spots.is_empty() || failed.triangles == 0 {
+        return None;
+    }
+    let first = *before_places.get_or_insert(failed.triangles);
+    (failed.triangles as f64 > refine::PLACE_GROWTH * first as f64).then(|| {
+        format!(
+            "meshing the places where this happens finer grew the surface mesh from {first} \
+             to {} triangles in {} rounds without curing them: faces there meet at a very \
+             sharp angle or close a wall far thinner than the spacing (the place there: {})",
+            failed.triangles,
+            rounds - 1,
+            refinement
+                .place_near(&failed.spots[0].0)
+                .unwrap_or_default()
+        )
+    })
 }
 
 /// Per face and per edge: the circle-point cap kept (1), released (2) or
