@@ -967,13 +967,7 @@ mod tests {
             })
             .collect();
         let tree = ConeTree::new(&mut samples);
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::bubbles::testing::uniform(7);
         for _ in 0..2000 {
             let p = P3::new(4.0 * next() - 2.0, 4.0 * next() - 2.0, 3.0 * next() - 0.5);
             let bound = 0.3 + next();

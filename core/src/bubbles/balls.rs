@@ -76,13 +76,7 @@ mod tests {
     fn finds_every_overlap_across_a_wide_spread_of_sizes() {
         let mut pos = Vec::new();
         let mut rad = Vec::new();
-        let mut s = 12345u64;
-        let mut rnd = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::bubbles::testing::uniform(12345);
         for _ in 0..2000 {
             pos.push(P3::new(10.0 * rnd(), 10.0 * rnd(), 0.01 * rnd()));
             rad.push(0.5 * 2f64.powf(-6.0 * rnd()));

@@ -1,6 +1,7 @@
 //! Small bubble systems for the unit tests of the bubble physics: carriers
 //! on the unit square of the xy plane and on the x axis, and lattices to
-//! fill them with; and the straight curve for tests that build a model.
+//! fill them with; the straight curve for tests that build a model; and
+//! the tests' pseudo-random numbers.
 
 use crate::bubbles::constraint::Carrier;
 use crate::bubbles::system::System;
@@ -136,5 +137,18 @@ pub(crate) fn hex_fill<C: Carrier>(
             i += 1;
         }
         j += 1;
+    }
+}
+
+/// Uniform numbers in [0, 1) from `seed`, the same on every machine (a
+/// 64-bit linear congruential generator, Knuth's MMIX constants, its top
+/// 53 bits): the tests' jitter and random point sets.
+pub(crate) fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
     }
 }

@@ -593,13 +593,8 @@ mod tests {
         let mut sys = square_system(&s);
         let nf = sys.n_fixed;
         hex_fill(&mut sys, 0.1, 0.1, |_, _| false);
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut jitter = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.05
-        };
+        let mut uniform = crate::bubbles::testing::uniform(0x9e37_79b9_7f4a_7c15);
+        let mut jitter = || (uniform() - 0.5) * 0.05;
         for i in nf..sys.n() {
             let (dx, dy) = (jitter(), jitter());
             sys.params[i] = [sys.params[i][0] + dx, sys.params[i][1] + dy];

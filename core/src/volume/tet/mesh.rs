@@ -43,13 +43,8 @@ pub(crate) mod testing {
     pub(crate) fn jittered_lattice(k: usize, jit: f64) -> (Vec<P3>, Vec<bool>, Vec<[u32; 4]>) {
         let mut pos = Vec::new();
         let mut movable = Vec::new();
-        let mut state = 0x1234_5678_u64;
-        let mut rnd = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut uniform = crate::bubbles::testing::uniform(0x1234_5678);
+        let mut rnd = || uniform() - 0.5;
         for i in 0..k {
             for j in 0..k {
                 for l in 0..k {
