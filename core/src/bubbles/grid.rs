@@ -72,21 +72,25 @@ impl Grid {
         }
     }
 
-    /// The same search over the bubbles from index `first` on alone (the
-    /// free ones, when the fixed come first): the bubbles a fixed one must
-    /// find. With cells, a query visits them in the order this grid does.
-    pub fn only_from(&self, pos: &[P3], first: usize) -> Grid {
-        let kind = match &self.kind {
-            Kind::Cells(c) => Kind::Cells(c.only_from(first as u32)),
-            Kind::Tree(_) => Kind::Tree(RTree::bulk_load(
-                pos.iter()
-                    .enumerate()
-                    .skip(first)
-                    .map(|(j, p)| GeomWithData::new([p.x, p.y, p.z], j as u32))
-                    .collect(),
-            )),
-        };
-        Grid { kind }
+    /// Where this is a tree, the same search over the bubbles from index
+    /// `first` on alone (the free ones, when the fixed come first): the
+    /// bubbles a fixed one must find, without the thousands of fixed ones
+    /// in its reach beside a finely refined boundary. `None` with cells,
+    /// whose queries are cheap at any rate (and whose visit order, which
+    /// decides the forces' summation order, then stays the one it was).
+    pub fn only_from(&self, pos: &[P3], first: usize) -> Option<Grid> {
+        match &self.kind {
+            Kind::Cells(_) => None,
+            Kind::Tree(_) => Some(Grid {
+                kind: Kind::Tree(RTree::bulk_load(
+                    pos.iter()
+                        .enumerate()
+                        .skip(first)
+                        .map(|(j, p)| GeomWithData::new([p.x, p.y, p.z], j as u32))
+                        .collect(),
+                )),
+            }),
+        }
     }
 
     /// Calls `f(j)` for the bubbles in the cells overlapping the ball (p, r)
@@ -161,28 +165,6 @@ impl Cells {
             lo,
             inv_h,
             dims,
-            start,
-            items,
-        }
-    }
-
-    /// The same cells with only the items from `first` on, in their order.
-    fn only_from(&self, first: u32) -> Cells {
-        let mut start = Vec::with_capacity(self.start.len());
-        let mut items = Vec::new();
-        start.push(0);
-        for w in self.start.windows(2) {
-            items.extend(
-                self.items[w[0] as usize..w[1] as usize]
-                    .iter()
-                    .filter(|&&j| j >= first),
-            );
-            start.push(items.len() as u32);
-        }
-        Cells {
-            lo: self.lo,
-            inv_h: self.inv_h,
-            dims: self.dims,
             start,
             items,
         }

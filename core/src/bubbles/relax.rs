@@ -111,7 +111,10 @@ impl<'a, C: Carrier> System<'a, C> {
         let mut pairs: Vec<(u32, u32)> = Vec::new();
         for i in 0..self.n() {
             let (pi, di) = (self.pos[i], self.d[i]);
-            let search = if i < nf { &free } else { &grid };
+            let search = match &free {
+                Some(free) if i < nf => free,
+                _ => &grid,
+            };
             search.query(&pi, reach * di, |j| {
                 let j = j as usize;
                 let dj = self.d[j];

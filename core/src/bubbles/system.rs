@@ -263,7 +263,10 @@ impl<'a, C: Carrier> System<'a, C> {
                 continue;
             }
             let (pi, di) = (self.pos[i], self.d[i]);
-            let search = if i < nf { &free } else { grid };
+            let search = match &free {
+                Some(free) if i < nf => free,
+                _ => grid,
+            };
             search.query(&pi, force::CUTOFF * di, |j| {
                 let j = j as usize;
                 if mask.is_some_and(|m| !m[j]) {

@@ -452,7 +452,9 @@ pub fn strip_rows<C: Carrier>(
     }
     let grid = BoundaryGrid::new(ring);
     let (free_pos, free_d) = free;
-    let free_points = Balls::new(free_pos, |_| 0.0);
+    // cells of 1.5 times the least spacing, or a tree where spacings
+    // spread far (see bubbles::grid)
+    let free_points = crate::bubbles::grid::Grid::for_spacings(free_pos, free_d, 1.5);
     for &[a, b] in ring.directed {
         let Some((ap, j, width)) = across_strip(carrier, ring, &grid, a, b, d_at)? else {
             continue;
@@ -462,7 +464,11 @@ pub fn strip_rows<C: Carrier>(
         }
         let apex = carrier.point(ap.apex_uv);
         let to_j = (ring.pos[j] - apex).norm();
-        if free_points.any(&apex, to_j, |k| (free_pos[k] - apex).norm() < to_j) {
+        let mut free_nearer = false;
+        free_points.query(&apex, to_j, |k| {
+            free_nearer |= (free_pos[k as usize] - apex).norm() < to_j;
+        });
+        if free_nearer {
             continue;
         }
         let Some((m_uv, p)) = halfway(carrier, &ap, width) else {
