@@ -20,7 +20,7 @@
 
 use crate::geom::P3;
 use rstar::primitives::{GeomWithData, Rectangle};
-use rstar::{Envelope, RTree, AABB};
+use rstar::{RTree, AABB};
 
 type Entry = GeomWithData<Rectangle<[f64; 3]>, u32>;
 
@@ -33,11 +33,10 @@ pub(crate) struct Balls {
 
 enum Kind {
     /// The centres in cells of four times the least radius; a query
-    /// reaches its radius plus the largest.
+    /// reaches its radius plus the largest (the callers' distance tests
+    /// decide, so no box test is made here).
     Cells {
         grid: super::grid::Grid,
-        centres: Vec<P3>,
-        radii: Vec<f64>,
         rmax: f64,
     },
     Tree(RTree<Entry>),
@@ -69,8 +68,6 @@ impl Balls {
             return Balls {
                 kind: Kind::Cells {
                     grid: super::grid::Grid::new(centres, 4.0 * rmin),
-                    centres: centres.to_vec(),
-                    radii,
                     rmax,
                 },
             };
@@ -94,18 +91,11 @@ impl Balls {
     /// whether one did. The order depends only on the set.
     fn visit(&self, p: &P3, r: f64, mut f: impl FnMut(usize) -> bool) -> bool {
         match &self.kind {
-            Kind::Cells {
-                grid,
-                centres,
-                radii,
-                rmax,
-            } => {
-                let q = cube(p, r);
+            Kind::Cells { grid, rmax } => {
                 let mut hit = false;
                 grid.query(p, clean(r) + rmax, |j| {
-                    let j = j as usize;
-                    if !hit && q.intersects(&cube(&centres[j], radii[j])) {
-                        hit = f(j);
+                    if !hit {
+                        hit = f(j as usize);
                     }
                 });
                 hit

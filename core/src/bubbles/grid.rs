@@ -203,13 +203,7 @@ mod tests {
     #[test]
     fn finds_every_point_within_radius() {
         let mut pts = Vec::new();
-        let mut s = 12345u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s % 1_000_000) as f64 / 1_000_000.0
-        };
+        let mut rnd = crate::bubbles::testing::uniform(12345);
         for _ in 0..2000 {
             pts.push(P3::new(rnd(), rnd() * 0.5, 0.0));
         }
@@ -232,13 +226,7 @@ mod tests {
     fn a_wide_spread_of_spacings_finds_every_point_within_radius() {
         let mut pts = Vec::new();
         let mut d = Vec::new();
-        let mut s = 99u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s % 1_000_000) as f64 / 1_000_000.0
-        };
+        let mut rnd = crate::bubbles::testing::uniform(99);
         for k in 0..3000 {
             pts.push(P3::new(rnd(), rnd(), 0.1 * rnd()));
             d.push(if k % 10 == 0 { 0.2 } else { 0.002 });

@@ -224,9 +224,10 @@ mod tests {
     use crate::volume::tet::mesh::testing::assert_positive;
 
     /// The rounds' stop (as_0082's counts: 7,338 and 987 points run, 757
-    /// does not): the first two rounds always run; a later one that asks for about as many points as the last
-    /// stops, unless it asks for a handful or a poor tetrahedron is left;
-    /// nothing asked, nothing run.
+    /// does not): the first two rounds always run; a later one that asks
+    /// for about as many points as the last stops, unless it asks for a
+    /// handful, or fewer poor tetrahedra are left than before every earlier
+    /// round, or a flat one is; nothing asked, nothing run.
     #[test]
     fn steiner_rounds_stop_where_they_stop_converging() {
         let pos = [
