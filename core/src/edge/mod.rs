@@ -12,6 +12,7 @@
 
 mod chain;
 pub(crate) mod placement;
+pub(crate) mod stagger;
 mod warm;
 
 use crate::error::{check_spacing, MeshError};
@@ -21,12 +22,16 @@ use crate::model::{EntityRef, Model};
 use crate::spacing::{Spacing, SpacingQuery};
 
 /// Meshes one edge; returns its node ids from start vertex to end vertex.
+/// An open edge with `ghosts` (nodes of earlier edges across a narrow face,
+/// [`stagger`]) places its nodes between them.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn mesh_edge(
     model: &Model,
     ei: usize,
     spacing: &dyn Spacing,
     fast: bool,
     start: Option<&crate::remesh::warm::EntityStart>,
+    ghosts: &[stagger::Ghost],
     mesh: &mut Mesh,
     node_d: &mut Vec<f64>,
 ) -> Result<Vec<u32>, MeshError> {
@@ -62,6 +67,19 @@ pub(crate) fn mesh_edge(
     // the bubbles a local re-meshing keeps
     let placed: Vec<(f64, Option<P3>)> = match start {
         Some(w) if !fast => warm::place(curve, t0, t1, closed, w, (sd, ed), &mut d_at)?,
+        _ if !fast && !closed && !ghosts.is_empty() => {
+            match stagger::place(curve, t0, t1, ghosts, &mut d_at)? {
+                Some(ts) => ts,
+                None => {
+                    let mut ts = placement::equidistribute_edge(curve, t0, t1, &mut d_at, closed)?;
+                    chain::relax_chain(curve, t0, t1, sd, ed, &mut ts, &mut d_at)?;
+                    ts
+                }
+            }
+            .into_iter()
+            .map(|t| (t, None))
+            .collect()
+        }
         _ => {
             let mut ts = if fast {
                 placement::bisect_edge(curve, t0, t1, &mut d_at, closed)?

@@ -90,8 +90,35 @@ pub fn equidistribute_edge(
             return Ok(Vec::new());
         }
     }
-    // cumulative ∫ ds/d on a sampling fine enough that each sample step is
-    // a small fraction of the local spacing
+    let (ts, cum) = weighted_table(curve, t0, t1, d_at)?;
+    let total = cum[cum.len() - 1];
+    let min_pieces = if closed { 3 } else { 1 };
+    let pieces = (total.round() as usize).max(min_pieces);
+    let mut out = Vec::with_capacity(pieces.saturating_sub(1));
+    let mut k = 0;
+    for q in 1..pieces {
+        let target = total * q as f64 / pieces as f64;
+        while cum[k + 1] < target {
+            k += 1;
+        }
+        let f = (target - cum[k]) / (cum[k + 1] - cum[k]).max(f64::MIN_POSITIVE);
+        out.push(ts[k] + f * (ts[k + 1] - ts[k]));
+    }
+    Ok(out)
+}
+
+/// The weighted length ∫ ds/d along `[t0, t1]` as a table: parameters
+/// `ts` (equal steps, at least 256 and at least 16 per unit of weighted
+/// length) and the cumulative weighted length `cum` at each (`cum[0] = 0`,
+/// non-decreasing, the last entry the whole edge's). The trapezoid rule on
+/// this sampling is what the equidistribution and the staggering
+/// ([`super::stagger`]) read positions from.
+pub(crate) fn weighted_table(
+    curve: &dyn Curve,
+    t0: f64,
+    t1: f64,
+    d_at: &mut dyn FnMut(f64, &P3) -> Result<f64, MeshError>,
+) -> Result<(Vec<f64>, Vec<f64>), MeshError> {
     let mut m = 256usize;
     loop {
         let ts: Vec<f64> = (0..=m)
@@ -130,19 +157,7 @@ pub fn equidistribute_edge(
             }
             continue;
         }
-        let min_pieces = if closed { 3 } else { 1 };
-        let pieces = (total.round() as usize).max(min_pieces);
-        let mut out = Vec::with_capacity(pieces.saturating_sub(1));
-        let mut k = 0;
-        for q in 1..pieces {
-            let target = total * q as f64 / pieces as f64;
-            while cum[k + 1] < target {
-                k += 1;
-            }
-            let f = (target - cum[k]) / (cum[k + 1] - cum[k]).max(f64::MIN_POSITIVE);
-            out.push(ts[k] + f * (ts[k + 1] - ts[k]));
-        }
-        return Ok(out);
+        return Ok((ts, cum));
     }
 }
 

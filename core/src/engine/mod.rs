@@ -535,12 +535,30 @@ impl Attempt<'_> {
         // arc, both shorter than the spacing) gets a middle node, or the two
         // edges would share one mesh segment and their faces one mesh edge
         let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
+        let neighbours = crate::edge::stagger::earlier_neighbours(model);
+        let mut sides = Default::default();
+        let solid = self.report.dim >= 3;
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
             let start = opts.warm.as_deref().and_then(|w| w.of(e));
+            // staggered strips serve surface meshes; the tetrahedra on
+            // their obtuse triangles came out flatter (docs/decisions.md)
+            let ghosts = if opts.fast || start.is_some() || solid {
+                Vec::new()
+            } else {
+                crate::edge::stagger::ghosts_of_edge(
+                    model,
+                    ei,
+                    &neighbours[ei],
+                    &edge_nodes,
+                    mesh,
+                    node_d,
+                    &mut sides,
+                )
+            };
             // what the edge's nodes depend on besides the places near it
             let d_bits = |v: u32| node_d.get(v as usize).map_or(u64::MAX, |d| d.to_bits());
-            let key = vec![
+            let mut key = vec![
                 refinement.edge_level(ei) as u64,
                 memory.edge_cap_state.get(ei).copied().unwrap_or(0),
                 spacing.constant_on(e).map_or(u64::MAX, f64::to_bits),
@@ -548,6 +566,11 @@ impl Attempt<'_> {
                 d_bits(edge.start),
                 d_bits(edge.end),
             ];
+            key.extend(
+                ghosts
+                    .iter()
+                    .flat_map(|g| [g.t.to_bits(), g.width.to_bits()]),
+            );
             let replayed = opts
                 .replay_unchanged
                 .then(|| {
@@ -565,8 +588,9 @@ impl Attempt<'_> {
             let mut ids = match replayed {
                 Some(ids) => ids,
                 None => {
-                    let ids = mesh_edge(model, ei, spacing, opts.fast, start, mesh, node_d)
-                        .map_err(|x| x.within(model.describe(e)))?;
+                    let ids =
+                        mesh_edge(model, ei, spacing, opts.fast, start, &ghosts, mesh, node_d)
+                            .map_err(|x| x.within(model.describe(e)))?;
                     memo::record_edge(
                         memory.edge_memos,
                         model.edges.len(),
