@@ -24,6 +24,16 @@
 //! so every segment stays near the spacing and every node keeps half a
 //! spacing from the ghosts, the more so the narrower the strip. An edge
 //! without ghosts keeps the equidistribution and the chain relaxation.
+//!
+//! A node is a ghost only where the strip is one: the face lies between
+//! the two edges (its surface path to the foot point is short, and it is on
+//! the face's side of the edge: not a slit, not a blend folding back,
+//! [`across`]); the strip is wider than the chords bow (or staggered
+//! chords would cross, [`ghost_of`]); it does not taper to a point (a
+//! staggered tip has obtuse triangles); and at least two nodes of the other
+//! edge lie along it. The engine asks for ghosts on surface meshes only:
+//! tetrahedra on the obtuse triangles of a staggered strip came out flatter
+//! (docs/decisions.md, session 25).
 
 use crate::error::MeshError;
 use crate::geom::{Curve, P3};
@@ -49,9 +59,9 @@ pub(crate) struct Ghost {
 /// wider faces place interior bubbles of their own.
 pub(crate) const REACH: f64 = 0.6;
 
-/// λ of a ghost at width 0: two side-by-side nodes cost as much as two
-/// segments of half or one and a half spacings, so a strip of two or more
-/// nodes staggers at the price of its end segments.
+/// λ of a ghost at width 0: a node beside it costs 2, eight times a
+/// segment half a spacing off, so a strip of two or more nodes staggers at
+/// the price of its end segments.
 const STRENGTH: f64 = 2.0;
 
 /// Grid steps per spacing of the dynamic programme: positions are found to
@@ -76,7 +86,7 @@ const TAPER: f64 = 0.5;
 /// point.
 const SAMPLES: usize = 64;
 
-/// The curve `[t0, t1]` sampled for [`ghosts`]: its points and their
+/// The curve `[t0, t1]` sampled for [`ghost_of`]: its points and their
 /// bounding box.
 pub(crate) struct Sampled {
     ts: Vec<f64>,
