@@ -437,7 +437,8 @@ pub(crate) fn ghosts_of_edge(
     let curve = edge.curve.as_ref();
     let mut sampled: Option<Sampled> = None;
     let mut out: Vec<Ghost> = Vec::new();
-    let mut seen: Vec<u32> = Vec::new();
+    // nodes already ghosts through another shared face
+    let mut seen: rustc_hash::FxHashSet<u32> = Default::default();
     for &(a, fi) in earlier {
         let Some(ids) = edge_nodes.get(a as usize) else {
             continue;
@@ -508,7 +509,7 @@ pub(crate) fn ghosts_of_edge(
         if kept.len() >= 2 {
             for (v, g) in kept {
                 out.push(g);
-                seen.push(v);
+                seen.insert(v);
             }
         }
     }

@@ -535,9 +535,14 @@ impl Attempt<'_> {
         // arc, both shorter than the spacing) gets a middle node, or the two
         // edges would share one mesh segment and their faces one mesh edge
         let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
-        let neighbours = crate::edge::stagger::earlier_neighbours(model);
-        let mut sides = Default::default();
         let solid = self.report.dim >= 3;
+        // ghosts are asked for on surface meshes only (see below)
+        let neighbours = if opts.fast || solid {
+            Vec::new()
+        } else {
+            crate::edge::stagger::earlier_neighbours(model)
+        };
+        let mut sides = Default::default();
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
             let start = opts.warm.as_deref().and_then(|w| w.of(e));
