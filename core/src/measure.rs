@@ -55,7 +55,13 @@ pub(crate) fn c3(p: &P3) -> robust::Coord3D<f64> {
 /// clipped to [0, 1] with 0 when undefined (coincident corners).
 /// Dimensionless; the same in any plane in 3D.
 pub fn triangle_radius_ratio(a: &P3, b: &P3, c: &P3) -> f64 {
-    let (la, lb, lc) = ((c - b).norm(), (a - c).norm(), (b - a).norm());
+    radius_ratio_of_lengths((c - b).norm(), (a - c).norm(), (b - a).norm())
+}
+
+/// [`triangle_radius_ratio`] from the edge lengths: `la` opposite the
+/// first corner, `lb` the second, `lc` the third.
+#[inline]
+pub fn radius_ratio_of_lengths(la: f64, lb: f64, lc: f64) -> f64 {
     clip01((lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc))
 }
 

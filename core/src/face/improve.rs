@@ -385,47 +385,49 @@ fn lift_bubbles<C: Carrier>(
     }
     let (ln_lo, ln_hi) = (PRM.band_lo.ln(), PRM.band_hi.ln());
     let mut moved = Vec::new();
+    let mut ring = Ring::default();
     for i in nf..n {
         if !poor[i] || movable.is_some_and(|m| !m[i]) {
             continue;
         }
         let mut floor = f64::NEG_INFINITY;
+        ring.gather(sys, tris, &incident[i], i);
         // the objective; -1 for an inverted triangle or, lifting the mean,
         // a smallest radius ratio below the floor
-        let worst_at = |sys: &System<'_, C>, p: &P3, uv: [f64; 2], floor: f64| -> f64 {
-            let (mut w, mut sum) = (f64::INFINITY, 0.0);
-            for &ti in &incident[i] {
-                let t = tris[ti];
-                let at = |x: usize| if x == i { *p } else { sys.pos[x] };
-                if !oriented(sys, t, i, p, uv) {
+        let worst_at =
+            |sys: &System<'_, C>, ring: &mut Ring, p: &P3, uv: [f64; 2], floor: f64| -> f64 {
+                if !ring.oriented(sys, i, p, uv) {
                     return -1.0;
                 }
-                let q = radius_ratio(&at(t[0]), &at(t[1]), &at(t[2]));
-                w = w.min(q);
-                sum += q;
-                if band > 0.0 {
-                    // each edge at i is in two of its triangles: half weight per triangle;
-                    // inside the band the penalty is zero, so the logarithm (the
-                    // costliest part of a trial, 6 % of case B) is taken outside only
-                    for &j in &t {
-                        if j != i {
-                            let l = (sys.pos[j] - p).norm() / (0.5 * (sys.d[i] + sys.d[j]));
-                            if (PRM.band_lo..=PRM.band_hi).contains(&l) {
-                                continue;
+                ring.measure(sys, p);
+                let (mut w, mut sum) = (f64::INFINITY, 0.0);
+                for r in &ring.tris {
+                    let q = ring.radius_ratio(r);
+                    w = w.min(q);
+                    sum += q;
+                    if band > 0.0 {
+                        // each edge at i is in two of its triangles: half weight per triangle;
+                        // inside the band the penalty is zero, so the logarithm (the
+                        // costliest part of a trial, 6 % of case B) is taken outside only
+                        for (k, &j) in r.t.iter().enumerate() {
+                            if j != i {
+                                let l = ring.len[r.slot[k]] / (0.5 * (sys.d[i] + sys.d[j]));
+                                if (PRM.band_lo..=PRM.band_hi).contains(&l) {
+                                    continue;
+                                }
+                                let r = l.ln();
+                                let out = (r - ln_hi).max(0.0) + (ln_lo - r).max(0.0);
+                                sum -= 0.5 * band * out * out;
                             }
-                            let r = l.ln();
-                            let out = (r - ln_hi).max(0.0) + (ln_lo - r).max(0.0);
-                            sum -= 0.5 * band * out * out;
                         }
                     }
                 }
-            }
-            match lift {
-                Lift::Worst => w,
-                Lift::Mean if w < floor => -1.0,
-                Lift::Mean => sum,
-            }
-        };
+                match lift {
+                    Lift::Worst => w,
+                    Lift::Mean if w < floor => -1.0,
+                    Lift::Mean => sum,
+                }
+            };
         if lift == Lift::Mean {
             let w = incident[i]
                 .iter()
@@ -436,7 +438,7 @@ fn lift_bubbles<C: Carrier>(
                 .fold(f64::INFINITY, f64::min);
             floor = w.min(PRM.lift_q);
         }
-        let mut best = worst_at(sys, &sys.pos[i], sys.params[i], floor);
+        let mut best = worst_at(sys, &mut ring, &sys.pos[i], sys.params[i], floor);
         let start = best;
         let mut step = 0.15 * sys.d[i];
         for _ in 0..10 {
@@ -451,7 +453,7 @@ fn lift_bubbles<C: Carrier>(
                 else {
                     continue;
                 };
-                let w = worst_at(sys, &p, uv, floor);
+                let w = worst_at(sys, &mut ring, &p, uv, floor);
                 if w > best + 1e-12 {
                     best = w;
                     sys.pos[i] = p;
@@ -471,6 +473,105 @@ fn lift_bubbles<C: Carrier>(
         }
     }
     Ok(moved)
+}
+
+/// A bubble's triangles for [`lift_bubbles`]' trials: the bubble moves,
+/// its neighbours do not, so each neighbour's distance is taken once per
+/// trial and each triangle's edge opposite the bubble once per search.
+/// Every length is the same floating-point expression as in
+/// [`radius_ratio`] (|x − y| and |y − x| round alike), so the objective is
+/// the one of the triangles' radius ratios bit for bit.
+#[derive(Default)]
+struct Ring {
+    /// The distinct neighbours (the triangles' other corners).
+    nodes: Vec<usize>,
+    /// Their distances to the trial position.
+    len: Vec<f64>,
+    tris: Vec<RingTri>,
+}
+
+struct RingTri {
+    t: [usize; 3],
+    /// The bubble's corner of `t`.
+    at: usize,
+    /// Each corner's index into `Ring::nodes` (the bubble's: unused).
+    slot: [usize; 3],
+    /// The length of the edge opposite the bubble.
+    opposite: f64,
+}
+
+impl Ring {
+    fn gather<C: Carrier>(
+        &mut self,
+        sys: &System<'_, C>,
+        tris: &[[usize; 3]],
+        incident: &[usize],
+        i: usize,
+    ) {
+        self.nodes.clear();
+        self.tris.clear();
+        for &ti in incident {
+            let t = tris[ti];
+            let at = t
+                .iter()
+                .position(|&x| x == i)
+                .expect("an incident triangle");
+            let mut slot = [usize::MAX; 3];
+            for (k, &x) in t.iter().enumerate() {
+                if x != i {
+                    slot[k] = match self.nodes.iter().position(|&y| y == x) {
+                        Some(s) => s,
+                        None => {
+                            self.nodes.push(x);
+                            self.nodes.len() - 1
+                        }
+                    };
+                }
+            }
+            let (b, c) = (t[(at + 1) % 3], t[(at + 2) % 3]);
+            self.tris.push(RingTri {
+                t,
+                at,
+                slot,
+                opposite: (sys.pos[c] - sys.pos[b]).norm(),
+            });
+        }
+        self.len.resize(self.nodes.len(), 0.0);
+    }
+
+    /// Whether every triangle is positively oriented with the bubble `i`
+    /// at (`p`, `uv`) ([`oriented`]; on a curved surface the normal at
+    /// `uv` is taken once).
+    fn oriented<C: Carrier>(&self, sys: &System<'_, C>, i: usize, p: &P3, uv: [f64; 2]) -> bool {
+        if sys.carrier.planar() {
+            return self.tris.iter().all(|r| oriented(sys, r.t, i, p, uv));
+        }
+        let n = sys.carrier.normal(uv);
+        self.tris.iter().all(|r| {
+            let at = |x: usize| if x == i { *p } else { sys.pos[x] };
+            let t = r.t;
+            (at(t[1]) - at(t[0])).cross(&(at(t[2]) - at(t[0]))).dot(&n) > 0.0
+        })
+    }
+
+    /// The neighbours' distances to `p`.
+    fn measure<C: Carrier>(&mut self, sys: &System<'_, C>, p: &P3) {
+        for (l, &j) in self.len.iter_mut().zip(&self.nodes) {
+            *l = (sys.pos[j] - p).norm();
+        }
+    }
+
+    /// [`radius_ratio`] of `r` from the measured lengths.
+    fn radius_ratio(&self, r: &RingTri) -> f64 {
+        let s = |k: usize| self.len[r.slot[k]];
+        // la = |c − b|, lb = |a − c|, lc = |b − a| as in radius_ratio
+        let (la, lb, lc) = match r.at {
+            0 => (r.opposite, s(2), s(1)),
+            1 => (s(2), r.opposite, s(0)),
+            _ => (s(1), s(0), r.opposite),
+        };
+        crate::measure::radius_ratio_of_lengths(la, lb, lc)
+    }
 }
 
 /// The bubbles `mark` marks and those within `k` rings of them (joined to
