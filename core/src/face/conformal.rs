@@ -193,7 +193,7 @@ struct FirstOrder {
     /// Dirichlet).
     unk: Vec<usize>,
     unk_nodes: Vec<usize>,
-    rows: Vec<Vec<(usize, f64)>>,
+    rows: Rows,
     diag: Vec<f64>,
     /// −(L u)_U − K_E.
     rhs0: Vec<f64>,
@@ -699,20 +699,33 @@ impl Metric {
     }
 
     /// Rows (off-diagonals) and diagonal of L restricted to the unknowns.
-    fn reduced(&self, unk: &[usize], unk_nodes: &[usize]) -> (Vec<Vec<(usize, f64)>>, Vec<f64>) {
-        let rows = unk_nodes
-            .iter()
-            .map(|&i| {
-                self.off[i]
-                    .iter()
-                    .filter(|&&(j, _)| unk[j] != usize::MAX)
-                    .map(|&(j, w)| (unk[j], -w))
-                    .collect()
-            })
-            .collect();
+    fn reduced(&self, unk: &[usize], unk_nodes: &[usize]) -> (Rows, Vec<f64>) {
+        let mut rows = Rows {
+            start: Vec::with_capacity(unk_nodes.len() + 1),
+            col: Vec::new(),
+            val: Vec::new(),
+        };
+        rows.start.push(0);
+        for &i in unk_nodes {
+            for &(j, w) in &self.off[i] {
+                if unk[j] != usize::MAX {
+                    rows.col.push(unk[j]);
+                    rows.val.push(-w);
+                }
+            }
+            rows.start.push(rows.col.len());
+        }
         let diag = unk_nodes.iter().map(|&i| self.diag[i]).collect();
         (rows, diag)
     }
+}
+
+/// The off-diagonal entries of a sparse matrix, row by row (compressed
+/// rows: row `i` is `col[start[i]..start[i + 1]]`, `val` likewise).
+struct Rows {
+    start: Vec<usize>,
+    col: Vec<usize>,
+    val: Vec<f64>,
 }
 
 /// A sparse symmetric positive definite matrix by rows (off-diagonals) and
@@ -720,19 +733,25 @@ impl Metric {
 /// written here because the workspace has no sparse solver and one small
 /// well-conditioned system per cone is all this needs.
 struct Spd<'a> {
-    rows: &'a [Vec<(usize, f64)>],
+    rows: &'a Rows,
     diag: &'a [f64],
 }
 
 impl Spd<'_> {
-    fn mul(&self, x: &[f64], y: &mut [f64]) {
+    /// y = A x; returns Σ x·y (each sum runs over i in order, from −0 as
+    /// `Iterator::sum` does, so fusing it here changes no bit).
+    fn mul(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        let Rows { start, col, val } = self.rows;
+        let mut dot = -0.0;
         for i in 0..x.len() {
             let mut s = self.diag[i] * x[i];
-            for &(j, a) in &self.rows[i] {
-                s += a * x[j];
+            for k in start[i]..start[i + 1] {
+                s += val[k] * x[col[k]];
             }
             y[i] = s;
+            dot += x[i] * s;
         }
+        dot
     }
 
     /// Solves A x = b from the start `x` to a residual below `tol`·|b|;
@@ -748,26 +767,28 @@ impl Spd<'_> {
         let mut z: Vec<f64> = (0..n).map(|i| r[i] / self.diag[i]).collect();
         let mut p = z.clone();
         let mut rz: f64 = (0..n).map(|i| r[i] * z[i]).sum();
+        let mut rr: f64 = r.iter().map(|v| v * v).sum();
         let mut ap = vec![0.0; n];
         for _ in 0..(5000 + 20 * (n as f64).sqrt() as usize) {
-            let rn = r.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if rn <= tol * bnorm {
+            if rr.sqrt() <= tol * bnorm {
                 return true;
             }
-            self.mul(&p, &mut ap);
-            let pap: f64 = (0..n).map(|i| p[i] * ap[i]).sum();
+            let pap = self.mul(&p, &mut ap);
             if !(pap > 0.0) {
                 return false;
             }
             let a = rz / pap;
+            let (mut rz2, mut rr2) = (-0.0, -0.0);
             for i in 0..n {
                 x[i] += a * p[i];
                 r[i] -= a * ap[i];
                 z[i] = r[i] / self.diag[i];
+                rz2 += r[i] * z[i];
+                rr2 += r[i] * r[i];
             }
-            let rz2: f64 = (0..n).map(|i| r[i] * z[i]).sum();
             let beta = rz2 / rz;
             rz = rz2;
+            rr = rr2;
             for i in 0..n {
                 p[i] = z[i] + beta * p[i];
             }
