@@ -160,6 +160,49 @@ impl Model {
         }
     }
 
+    /// Two distinct vertices of face `f`'s loops that lie within `tol` of
+    /// each other and are joined by none of its edges: the face's boundary
+    /// touches itself there (a hole tangent to the outer loop, written with
+    /// a vertex of its own at the touching point). No conforming mesh keeps
+    /// two nodes at one point apart, so such a face cannot be meshed as
+    /// given.
+    pub fn pinch(&self, f: usize, tol: f64) -> Option<(u32, u32)> {
+        let face = self.faces.get(f)?;
+        let uses = || face.loops.iter().flat_map(|l| &l.edges);
+        let mut verts: Vec<u32> = uses()
+            .flat_map(|u| {
+                let e = &self.edges[u.edge as usize];
+                [e.start, e.end]
+            })
+            .collect();
+        verts.sort_unstable();
+        verts.dedup();
+        let joined = |a: u32, b: u32| {
+            uses().any(|u| {
+                let e = &self.edges[u.edge as usize];
+                (e.start, e.end) == (a, b) || (e.start, e.end) == (b, a)
+            })
+        };
+        // sorted by x, only pairs within `tol` in x are compared
+        let x = |v: u32| self.vertices[v as usize].point.x;
+        verts.sort_by(|&a, &b| x(a).total_cmp(&x(b)));
+        for (k, &a) in verts.iter().enumerate() {
+            for &b in &verts[k + 1..] {
+                if x(b) - x(a) > tol {
+                    break;
+                }
+                let (pa, pb) = (
+                    self.vertices[a as usize].point,
+                    self.vertices[b as usize].point,
+                );
+                if (pa - pb).norm() <= tol && !joined(a, b) {
+                    return Some((a.min(b), a.max(b)));
+                }
+            }
+        }
+        None
+    }
+
     /// Axis-aligned bounding box of the vertices, sampled edges and sampled
     /// faces (where their parameter domain is finite).
     pub fn bbox(&self) -> Option<(P3, P3)> {

@@ -105,6 +105,36 @@ impl Report {
     }
 }
 
+/// Relative distance (of the model's size) within which two vertices of a
+/// face are one point for [`Model::pinch`].
+const PINCH_TOL: f64 = 1e-9;
+
+/// Refuses a face whose boundary touches itself ([`Model::pinch`]) before
+/// any meshing: refinement cannot separate two nodes at one point, and
+/// retrying it only took time (as_gehause_rohteil.stp: 12 s to fail with
+/// "two mesh nodes coincide").
+fn refuse_pinched_faces(model: &Model) -> Result<(), MeshError> {
+    let Some((lo, hi)) = model.bbox() else {
+        return Ok(());
+    };
+    let tol = PINCH_TOL * (hi - lo).norm();
+    for f in 0..model.faces.len() {
+        if let Some((a, b)) = model.pinch(f, tol) {
+            let p = model.vertices[a as usize].point;
+            return Err(MeshError::Invalid(format!(
+                "{}: its boundary touches itself at ({}, {}, {}): {} and {} are two vertices at one point, joined by no edge (a hole touching the outer loop?); a mesh cannot keep two nodes at one point apart — repair the face in the CAD system so that one vertex is shared",
+                model.describe(EntityRef::new(2, f as u32)),
+                p.x,
+                p.y,
+                p.z,
+                model.describe(EntityRef::new(0, a)),
+                model.describe(EntityRef::new(0, b)),
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Meshes `model` with the node spacing `spacing`, in the order of
 /// dimensions, up to `opts.dim` (default: the model's dimension).
 ///
@@ -118,6 +148,7 @@ pub fn mesh_model(
     opts: &Options,
 ) -> Result<(Mesh, Report), MeshError> {
     let t_start = Instant::now();
+    refuse_pinched_faces(model)?;
     let mut refinement = refine::Refinement::new(model);
     let mut rounds = 0;
     // edges, faces and vertices take at least `circle_points` nodes per
