@@ -147,8 +147,20 @@ pub fn mesh_model(
     spacing: &dyn Spacing,
     opts: &Options,
 ) -> Result<(Mesh, Report), MeshError> {
-    let t_start = Instant::now();
+    // what no refinement can cure is refused before any meshing
     refuse_pinched_faces(model)?;
+    mesh_refining(model, spacing, opts)
+}
+
+/// [`mesh_model`]'s attempts: meshes the model, and after a failure that a
+/// finer spacing may cure, meshes it again with the failing faces or places
+/// refined (faces that did not change are replayed).
+fn mesh_refining(
+    model: &Model,
+    spacing: &dyn Spacing,
+    opts: &Options,
+) -> Result<(Mesh, Report), MeshError> {
+    let t_start = Instant::now();
     let mut refinement = refine::Refinement::new(model);
     let mut rounds = 0;
     // edges, faces and vertices take at least `circle_points` nodes per
