@@ -439,20 +439,22 @@ pub(crate) struct Refined<'a> {
 }
 
 impl Refined<'_> {
-    /// Whether the refinement leaves the spacing on entity `e` (an edge or
-    /// a face) as `inner`'s.
-    fn untouched(&self, e: crate::model::EntityRef) -> bool {
-        let (level, boxes) = match e.dim {
-            1 => (self.refinement.edge_level(e.id as usize), self.edge_boxes),
-            2 => (self.refinement.face_level(e.id as usize), self.face_boxes),
-            _ => return false,
+    /// The factor the refinement multiplies `inner`'s spacing by on entity
+    /// `e` (an edge or a face), where that is all it does (no place reaches
+    /// the box of its last mesh); `None` where a place may cap it or the
+    /// entity has no box yet.
+    fn scale(&self, e: crate::model::EntityRef) -> Option<f64> {
+        let boxes = match e.dim {
+            1 => self.edge_boxes,
+            2 => self.face_boxes,
+            _ => return None,
         };
-        level == 0
-            && boxes
-                .get(e.id as usize)
-                .copied()
-                .flatten()
-                .is_some_and(|(lo, hi)| !self.refinement.any_place_reaches(&lo, &hi))
+        boxes
+            .get(e.id as usize)
+            .copied()
+            .flatten()
+            .is_some_and(|(lo, hi)| !self.refinement.any_place_reaches(&lo, &hi))
+            .then(|| self.refinement.factor(e))
     }
 }
 
@@ -475,12 +477,13 @@ impl Spacing for Refined<'_> {
     }
     fn constant_on(&self, e: crate::model::EntityRef) -> Option<f64> {
         // an edge or face the refinement does not touch stays uniform, so
-        // that its mesh is the one it had (and is replayed: engine::memo)
-        if self.refinement.is_empty() || self.untouched(e) {
-            self.inner.constant_on(e)
-        } else {
-            None
+        // that its mesh is the one it had (and is replayed: engine::memo);
+        // one it only refines by a factor is uniform at the finer spacing
+        if self.refinement.is_empty() {
+            return self.inner.constant_on(e);
         }
+        let f = self.scale(e)?;
+        self.inner.constant_on(e).map(|d| d * f)
     }
 }
 
@@ -528,6 +531,44 @@ mod tests {
         let report = r.places();
         assert_eq!(report.len(), 1);
         assert!(report[0].spacing_factor < 0.01);
+    }
+
+    /// A face the refinement only halves (no place reaches its box) has a
+    /// uniform spacing where the requested one is uniform: `constant_on`
+    /// says so, with the value `spacing` gives on it (stage 2 then packs
+    /// it as a uniform face, without the graded faces' pressure); where a
+    /// place may reach it, or it has no box yet, it does not.
+    #[test]
+    fn a_face_refined_by_levels_alone_keeps_a_uniform_spacing() {
+        use crate::spacing::{Constant, Spacing};
+        let mut r = Refinement {
+            face: vec![2, 0, 1, 1],
+            edge: vec![0],
+            ..Default::default()
+        };
+        let far = P3::new(100.0, 0.0, 0.0);
+        assert!(r.bump_spots(&[(far, 0.1)], |_| 1.0, "missing"));
+        let unit = |x: f64| Some((P3::new(x, 0.0, 0.0), P3::new(x + 1.0, 1.0, 1.0)));
+        let boxes = [unit(0.0), unit(2.0), Some((far, far)), None];
+        let inner = Constant(1.0);
+        let refined = Refined {
+            inner: &inner,
+            refinement: &r,
+            face_boxes: &boxes,
+            edge_boxes: &[],
+        };
+        let face = |f: u32| EntityRef::new(2, f);
+        assert_eq!(refined.constant_on(face(0)), Some(0.25));
+        let on_face = SpacingQuery {
+            point: P3::new(0.5, 0.5, 0.5),
+            entity: face(0),
+            params: [0.0, 0.0],
+        };
+        assert_eq!(refined.spacing(&on_face), 0.25);
+        assert_eq!(refined.constant_on(face(1)), Some(1.0));
+        assert_eq!(refined.constant_on(face(2)), None, "a place reaches it");
+        assert_eq!(refined.constant_on(face(3)), None, "no box yet");
+        assert_eq!(refined.constant_on(EntityRef::new(1, 0)), None, "no box");
     }
 
     /// A spot that keeps failing raises its place one level per round up to
