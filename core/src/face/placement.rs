@@ -193,7 +193,7 @@ struct Corner {
 /// exact, a corner's (u,v) being the same bits at every level (the cell
 /// size is l0/2^lev).
 #[derive(Default)]
-struct Corners(std::collections::HashMap<(i64, i64), Corner>);
+struct Corners(rustc_hash::FxHashMap<(i64, i64), Corner>);
 
 impl Corners {
     /// The corner of key `k` at (u,v) `uv`, evaluated if it is new.
