@@ -52,18 +52,15 @@ thread_local! {
     static REBUILD_EVERY_STEP: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// Outside tests the lists are built when a bubble used up the skin.
-#[cfg(not(test))]
-struct RebuildEveryStep;
-#[cfg(not(test))]
-impl RebuildEveryStep {
-    #[inline(always)]
-    fn get(&self) -> bool {
-        false
-    }
+/// Whether the lists are built at every step: in tests that ask for it;
+/// otherwise only when a bubble used up the skin.
+#[inline(always)]
+fn rebuild_every_step() -> bool {
+    #[cfg(test)]
+    return REBUILD_EVERY_STEP.get();
+    #[cfg(not(test))]
+    false
 }
-#[cfg(not(test))]
-const REBUILD_EVERY_STEP: RebuildEveryStep = RebuildEveryStep;
 
 /// Verlet neighbour lists in compressed rows.
 pub struct Neighbours {
@@ -263,13 +260,14 @@ impl<'a, C: Carrier> System<'a, C> {
                 Integrator::Euler => self.step_euler(&mut st, step, h, c, s.parallel)?,
                 Integrator::Rk4 => {
                     let m = self.step_rk4(h, c, &st.nb)?;
+                    let rebuild = self.rebuild_move();
                     st.awake = (self.n_fixed as u32..self.n() as u32).collect();
                     if self
                         .pos
                         .iter()
                         .zip(&st.nb.built_pos)
                         .zip(&self.d)
-                        .any(|((p, q), d)| (p - q).norm() > self.rebuild_move() * d)
+                        .any(|((p, q), d)| (p - q).norm() > rebuild * d)
                     {
                         st.nb.stale = true;
                     }
@@ -293,7 +291,7 @@ impl<'a, C: Carrier> System<'a, C> {
                 }
                 continue;
             }
-            if st.nb.stale || REBUILD_EVERY_STEP.get() {
+            if st.nb.stale || rebuild_every_step() {
                 st.nb = self.neighbours();
             }
             if self.settled(&mut st, s, step, max_move, population_open) {

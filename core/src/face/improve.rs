@@ -184,12 +184,18 @@ fn oriented<C: Carrier>(
         let q = |x: usize| if x == i { uv } else { sys.params[x] };
         orient_uv(q(t[0]), q(t[1]), q(t[2])) > 0.0
     } else {
-        let at = |x: usize| if x == i { *p } else { sys.pos[x] };
         let n = sys
             .carrier
             .normal(if t.contains(&i) { uv } else { sys.params[t[0]] });
-        (at(t[1]) - at(t[0])).cross(&(at(t[2]) - at(t[0]))).dot(&n) > 0.0
+        turns_about(sys, t, i, p, &n)
     }
+}
+
+/// Whether triangle `t`, with bubble `i` at `p`, turns positively about
+/// the surface normal `n` (the curved-surface case of [`oriented`]).
+fn turns_about<C: Carrier>(sys: &System<'_, C>, t: [usize; 3], i: usize, p: &P3, n: &V3) -> bool {
+    let at = |x: usize| if x == i { *p } else { sys.pos[x] };
+    (at(t[1]) - at(t[0])).cross(&(at(t[2]) - at(t[0]))).dot(n) > 0.0
 }
 
 /// Whether the edge (a,b) of the triangles (a,b,c), (b,a,d) should flip to
@@ -547,11 +553,7 @@ impl Ring {
             return self.tris.iter().all(|r| oriented(sys, r.t, i, p, uv));
         }
         let n = sys.carrier.normal(uv);
-        self.tris.iter().all(|r| {
-            let at = |x: usize| if x == i { *p } else { sys.pos[x] };
-            let t = r.t;
-            (at(t[1]) - at(t[0])).cross(&(at(t[2]) - at(t[0]))).dot(&n) > 0.0
-        })
+        self.tris.iter().all(|r| turns_about(sys, r.t, i, p, &n))
     }
 
     /// The neighbours' distances to `p`.
