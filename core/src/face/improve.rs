@@ -390,6 +390,11 @@ fn lift_bubbles<C: Carrier>(
         }
     }
     let (ln_lo, ln_hi) = (PRM.band_lo.ln(), PRM.band_hi.ln());
+    // the eight trial directions, k·45° from the frame's first tangent
+    let turns: [(f64, f64); 8] = std::array::from_fn(|k| {
+        let a = k as f64 * std::f64::consts::FRAC_PI_4;
+        (a.cos(), a.sin())
+    });
     let mut moved = Vec::new();
     let mut ring = Ring::default();
     for i in nf..n {
@@ -447,12 +452,13 @@ fn lift_bubbles<C: Carrier>(
         let mut best = worst_at(sys, &mut ring, &sys.pos[i], sys.params[i], floor);
         let start = best;
         let mut step = 0.15 * sys.d[i];
+        // the frame changes only where the bubble moved
+        let mut frame = sys.carrier.frame(sys.params[i]);
         for _ in 0..10 {
-            let (t1, t2) = sys.carrier.frame(sys.params[i]);
+            let (t1, t2) = frame;
             let mut improved = false;
-            for k in 0..8 {
-                let a = k as f64 * std::f64::consts::FRAC_PI_4;
-                let dir = t1 * a.cos() + t2 * a.sin();
+            for &(cos, sin) in &turns {
+                let dir = t1 * cos + t2 * sin;
                 let Some((p, uv)) = sys
                     .carrier
                     .advance(&sys.pos[i], sys.params[i], &(dir * step))
@@ -467,7 +473,9 @@ fn lift_bubbles<C: Carrier>(
                     improved = true;
                 }
             }
-            if !improved {
+            if improved {
+                frame = sys.carrier.frame(sys.params[i]);
+            } else {
                 step *= 0.5;
             }
         }
