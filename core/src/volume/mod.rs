@@ -414,6 +414,9 @@ pub struct VolumeReport {
     /// Pairs of boundary triangles turned to the Delaunay diagonal of
     /// their quadrilateral before the connection ([`recover`]).
     pub boundary_flips: usize,
+    /// Flat tetrahedra on a boundary quadrilateral removed at the end,
+    /// their pairs turned ([`recover::turn_flat_quads`]).
+    pub flat_quads: usize,
     /// Boundary edges split on the geometry before the connection, and
     /// where ([`split`]): there the face meshes are finer than requested.
     pub boundary_splits: split::Splits,
@@ -805,10 +808,56 @@ fn attempt(
             return Ok(Attempt::GiveUp(frac));
         }
     }
+    rep.flat_quads = remove_flat_quads(job, boundary, &mut tm, mesh);
     refuse_flat(&tm, rep.steiner)?;
     write_volume(job.entity, boundary, &tm, &mut rep, mesh);
     timings.connect_s += t3.elapsed().as_secs_f64();
     Ok(Attempt::Done(Box::new(rep)))
+}
+
+/// [`recover::turn_flat_quads`] on `tm`, the finished tetrahedra of
+/// `job`'s volume: the flat tetrahedra on boundary quadrilaterals are
+/// removed from `tm` and their pairs turned in `mesh`. Faces of volumes
+/// meshed before this one are left as they are. Returns how many.
+fn remove_flat_quads(
+    job: &VolumeJob<'_>,
+    boundary: &Boundary,
+    tm: &mut TetMesh,
+    mesh: &mut crate::mesh::Mesh,
+) -> usize {
+    let n_fixed = boundary.n_fixed();
+    let flat =
+        |t: &[u32; 4]| crate::measure::tet_radius_ratio_of(&tm.pos, t) < tet::steiner::FLAT_Q;
+    if !tm
+        .tets
+        .iter()
+        .any(|t| t.iter().all(|&k| (k as usize) < n_fixed) && flat(t))
+    {
+        return 0;
+    }
+    let volumes = &job.model.volumes;
+    let earlier: std::collections::HashSet<u32> = volumes[..job.vi]
+        .iter()
+        .flat_map(|v| v.faces.iter().copied())
+        .collect();
+    let mut uses: std::collections::HashMap<u32, usize> = Default::default();
+    for &f in &volumes[job.vi].faces {
+        *uses.entry(f).or_default() += 1;
+    }
+    // a face listed twice bounds the volume on both sides
+    let faces = uses
+        .into_iter()
+        .filter(|&(f, n)| n == 1 && !earlier.contains(&f))
+        .map(|(f, _)| f)
+        .collect();
+    let gone = recover::turn_flat_quads(mesh, &faces, &boundary.fixed_ids, &tm.tets, flat);
+    let drop: std::collections::HashSet<usize> = gone.iter().copied().collect();
+    let mut k = 0;
+    tm.tets.retain(|_| {
+        k += 1;
+        !drop.contains(&(k - 1))
+    });
+    gone.len()
 }
 
 /// The volume's tetrahedra with the old ones `old` kept where they can be

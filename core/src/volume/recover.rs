@@ -283,9 +283,91 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
     turned
 }
 
+/// Removes the flat tetrahedra that lie on a boundary quadrilateral and
+/// turns the quadrilateral's diagonal: a tetrahedron of four boundary
+/// nodes, flat (`flat`), two of whose faces are boundary triangles of one
+/// face sharing an edge, a planar quadrilateral whose corners are
+/// co-circular (a rectangular face smaller than the spacing, meshed as two
+/// triangles). The Delaunay tetrahedralization, unique under its symbolic
+/// perturbation, may hold the flat tetrahedron on the inside of the
+/// quadrilateral, its two other faces (the other diagonal's triangles)
+/// shared with the tetrahedra inside. Steiner points do not remove it
+/// (every in-sphere test against four co-circular points is decided by the
+/// perturbation) and a finer spacing does not either while the face stays
+/// two triangles (the short-edge rule keeps an edge shorter than the
+/// spacing one segment). Without it, and with the quadrilateral split
+/// along the other diagonal, the remaining tetrahedra are a complex whose
+/// boundary is the turned face mesh: nothing else changes.
+///
+/// `tets` are in local node ids; the first `global.len()` local nodes are
+/// the boundary nodes, `global` their ids in `mesh`. Only triangles of
+/// `faces` are turned (the caller leaves out the faces of volumes already
+/// meshed, whose tetrahedra use the triangles as they are), under the
+/// conditions of [`Quad::across`] and [`Quad::turn_keeps_facing`]. Returns
+/// the indices into `tets` of the tetrahedra to remove; their pairs are
+/// turned in `mesh`.
+pub(crate) fn turn_flat_quads(
+    mesh: &mut Mesh,
+    faces: &HashSet<u32>,
+    global: &[u32],
+    tets: &[[u32; 4]],
+    flat: impl Fn(&[u32; 4]) -> bool,
+) -> Vec<usize> {
+    let candidates: Vec<(usize, [u32; 4])> = tets
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.iter().all(|&k| (k as usize) < global.len()) && flat(t))
+        .map(|(i, t)| (i, t.map(|k| global[k as usize])))
+        .collect();
+    if candidates.is_empty() {
+        return Vec::new();
+    }
+    let idx = triangles_of(mesh, faces);
+    let of_nodes: HashMap<[u32; 3], usize> = idx
+        .iter()
+        .map(|&k| (sorted3(mesh.triangles[k].nodes), k))
+        .collect();
+    let lines: HashSet<(u32, u32)> = mesh
+        .lines
+        .iter()
+        .map(|l| key(l.nodes[0], l.nodes[1]))
+        .collect();
+    let by_edge = by_edge(mesh, idx.iter().copied());
+    let mut touched: HashSet<usize> = HashSet::new();
+    let mut removed = Vec::new();
+    for (ti, g) in candidates {
+        let on: Vec<usize> = TET_FACES
+            .iter()
+            .filter_map(|f| of_nodes.get(&sorted3(f.map(|i| g[i]))).copied())
+            .collect();
+        let &[k, m] = on.as_slice() else {
+            continue;
+        };
+        // the edge of triangle k shared with m
+        let (t, u) = (mesh.triangles[k].nodes, mesh.triangles[m].nodes);
+        let Some(i) = (0..3).find(|&i| u.contains(&t[i]) && u.contains(&t[(i + 1) % 3])) else {
+            continue;
+        };
+        let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
+            continue;
+        };
+        if q.m != m || touched.contains(&k) || !q.turn_keeps_facing(mesh) {
+            continue;
+        }
+        let [t1, t2] = q.turned();
+        mesh.triangles[k].nodes = t1;
+        mesh.triangles[m].nodes = t2;
+        touched.insert(k);
+        touched.insert(m);
+        removed.push(ti);
+    }
+    removed
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::measure::orient3d;
     use crate::mesh::{Element, Node};
     use crate::model::EntityRef;
 
@@ -363,6 +445,128 @@ mod tests {
         for t in &mesh.triangles[..2] {
             let [p, q, r] = t.nodes.map(|g| mesh.nodes[g as usize].pos);
             assert!((q - p).cross(&(r - p)).z < 0.0);
+        }
+    }
+
+    /// A square pyramid pointing down (apex at z = −1, the volume below
+    /// its base), its base split along 0–2, and its tetrahedra as the
+    /// perturbed Delaunay tetrahedralization can have them: the flat
+    /// tetrahedron of the four co-circular base corners, on the inside of
+    /// the base, and the two tetrahedra of the other split, 1–3, below it.
+    fn flat_under_base() -> (Mesh, Vec<[u32; 4]>) {
+        let mut mesh = Mesh::default();
+        for p in [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, -1.0],
+        ] {
+            mesh.nodes.push(Node {
+                pos: P3::new(p[0], p[1], p[2]),
+                entity: EntityRef::new(2, 0),
+                params: [0.0, 0.0],
+            });
+        }
+        // outward: the base's normals +z, the sides' away from the axis
+        for t in [[0, 1, 2], [0, 2, 3]] {
+            mesh.triangles.push(tri(t, 0));
+        }
+        for t in [[1, 0, 4], [2, 1, 4], [3, 2, 4], [0, 3, 4]] {
+            mesh.triangles.push(tri(t, 1));
+        }
+        let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
+        let positive = |mut t: [u32; 4]| {
+            let [a, b, c, d] = t.map(|k| pos[k as usize]);
+            if orient3d(&a, &b, &c, &d) < 0.0 {
+                t.swap(0, 1);
+            }
+            t
+        };
+        let tets = vec![[0, 1, 2, 3], positive([0, 1, 3, 4]), positive([1, 2, 3, 4])];
+        (mesh, tets)
+    }
+
+    /// The faces of `tets` that are in one of them, sorted.
+    fn hull_of(tets: &[[u32; 4]]) -> HashSet<[u32; 3]> {
+        let mut count: HashMap<[u32; 3], usize> = HashMap::new();
+        for t in tets {
+            for f in &TET_FACES {
+                *count.entry(sorted3(f.map(|i| t[i]))).or_default() += 1;
+            }
+        }
+        count
+            .into_iter()
+            .filter(|&(_, n)| n == 1)
+            .map(|(f, _)| f)
+            .collect()
+    }
+
+    /// The flat tetrahedron goes, the base turns to the other diagonal and
+    /// keeps facing out, and the tetrahedra left have exactly the turned
+    /// face mesh as their boundary.
+    #[test]
+    fn a_flat_tetrahedron_on_a_boundary_quad_goes_and_the_quad_turns() {
+        let (mut mesh, tets) = flat_under_base();
+        // before: the flat tetrahedron's faces on the base make the hull
+        // differ from the face mesh
+        let faces_of = |mesh: &Mesh| -> HashSet<[u32; 3]> {
+            mesh.triangles.iter().map(|t| sorted3(t.nodes)).collect()
+        };
+        assert_ne!(hull_of(&tets[1..]), faces_of(&mesh));
+        let global: Vec<u32> = (0..5).collect();
+        let flat = |t: &[u32; 4]| {
+            let [a, b, c, d] = t.map(|k| mesh.nodes[k as usize].pos);
+            orient3d(&a, &b, &c, &d) == 0.0
+        };
+        let gone = {
+            let flat: Vec<bool> = tets.iter().map(flat).collect();
+            turn_flat_quads(
+                &mut mesh,
+                &[0, 1].into_iter().collect(),
+                &global,
+                &tets,
+                |t| flat[tets.iter().position(|u| u == t).unwrap()],
+            )
+        };
+        assert_eq!(gone, vec![0]);
+        let left: Vec<[u32; 4]> = tets[1..].to_vec();
+        assert_eq!(hull_of(&left), faces_of(&mesh));
+        let base: HashSet<[u32; 3]> = mesh.triangles[..2]
+            .iter()
+            .map(|t| sorted3(t.nodes))
+            .collect();
+        assert_eq!(base, [[0, 1, 3], [1, 2, 3]].into_iter().collect());
+        for t in &mesh.triangles[..2] {
+            let [p, q, r] = t.nodes.map(|g| mesh.nodes[g as usize].pos);
+            assert!((q - p).cross(&(r - p)).z > 0.0);
+        }
+    }
+
+    /// With the base's diagonal on a mesh line, or the base a face the
+    /// caller leaves out, nothing goes and nothing turns.
+    #[test]
+    fn a_flat_tetrahedron_on_a_line_or_a_kept_face_stays() {
+        for (line, faces) in [(true, [0u32, 1]), (false, [1, 1])] {
+            let (mut mesh, tets) = flat_under_base();
+            if line {
+                mesh.lines.push(Element {
+                    nodes: [0, 2],
+                    entity: EntityRef::new(1, 0),
+                });
+            }
+            let before: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
+            let global: Vec<u32> = (0..5).collect();
+            let gone = turn_flat_quads(
+                &mut mesh,
+                &faces.into_iter().collect(),
+                &global,
+                &tets,
+                |t| t == &[0, 1, 2, 3],
+            );
+            assert!(gone.is_empty());
+            let after: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
+            assert_eq!(before, after);
         }
     }
 
