@@ -6,11 +6,13 @@ write bench/out/realstep/results.json and bench/out/realstep/RESULTS.md.
 
     python3 bench/run_realstep.py [--modes surf,tet] [--files a,b] [--timeout 300]
                                   [--mem-mb 8000] [--threads 1]
+                                  [--divisor-surf 25] [--divisor-tet 20]
 
 Sizes (shared/realstep/SOURCES.md): surfaces (`--dim 2`) at d = diag/25,
 tetrahedra (`--dim 3`) at d = diag/20, diag being the diagonal of the part's
 bounding box as Gmsh's OpenCascade import reports it (`Geometry.OCCBoundsUseStl`,
-so the box is tight), the same d for both meshers. OpenCascade converts every
+so the box is tight), the same d for both meshers. Other divisors (a sweep
+over sizes) write to bench/out/realstep_s<surf>_t<tet>/. OpenCascade converts every
 file to millimetres, so bubblemesh runs with `--unit mm` (files in metres,
 centimetres or inches would otherwise be meshed at 1000, 10 or 25.4 times d).
 
@@ -172,7 +174,16 @@ def main():
     ap.add_argument("--mem-mb", type=int, default=8000)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--skip-gmsh", action="store_true", help="reuse Gmsh's results from the last run")
+    ap.add_argument("--divisor-surf", type=float, default=DIVISOR["surf"],
+                    help="surfaces at d = diag / this (default 25, the benchmark's)")
+    ap.add_argument("--divisor-tet", type=float, default=DIVISOR["tet"],
+                    help="tetrahedra at d = diag / this (default 20, the benchmark's)")
     a = ap.parse_args()
+    global OUT
+    if (a.divisor_surf, a.divisor_tet) != (DIVISOR["surf"], DIVISOR["tet"]):
+        # other sizes (a robustness sweep) keep their own results
+        OUT = f"{OUT}_s{a.divisor_surf:g}_t{a.divisor_tet:g}"
+        DIVISOR.update(surf=a.divisor_surf, tet=a.divisor_tet)
     if not os.path.exists(BM):
         sys.exit(f"{BM} not found: cargo build --release -p bubblemesh-cli")
     os.makedirs(OUT, exist_ok=True)
@@ -266,7 +277,8 @@ def write_table(results):
         msg = (b.get("error") or "").replace("|", "/")[:140]
         lines.append(f"| {mode} | {f} | {g['d']:.4g} | {go} | {g_t:.2f} | {gq} | {bo} | {b['time_s']:.2f} | {bq} | {wa} | {tp} | {msg} |")
     head = ["# bubblemesh and Gmsh on ../shared/realstep", "",
-            "Made by `python3 bench/run_realstep.py`; see its docstring for sizes and settings.", ""]
+            "Made by `python3 bench/run_realstep.py`; see its docstring for sizes and settings. "
+            f"Surfaces at diag/{DIVISOR['surf']:g}, tetrahedra at diag/{DIVISOR['tet']:g}.", ""]
     for mode, s in summary.items():
         head.append(f"- **{mode}**: {s['n']} files; Gmsh valid {s['gmsh_valid']}, bubblemesh valid {s['bm_valid']} "
                     f"(of Gmsh's valid ones: {s['bm_valid_where_gmsh_valid']}; where Gmsh is not: {s['bm_only']}); "
