@@ -131,6 +131,15 @@ pub(crate) fn by_edge(
     out
 }
 
+/// The mesh lines (CAD edges, seams) of `mesh` as undirected node pairs:
+/// no pair of triangles is turned across one.
+pub(crate) fn mesh_lines(mesh: &Mesh) -> HashSet<(u32, u32)> {
+    mesh.lines
+        .iter()
+        .map(|l| key(l.nodes[0], l.nodes[1]))
+        .collect()
+}
+
 /// Two triangles of one face on a shared edge that is no mesh line: the
 /// triangle `k` = (a, b, c) and its neighbour `m` = (b, a, d), the
 /// quadrilateral a→d→b→c.
@@ -240,11 +249,7 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
     if !idx.iter().any(|&k| missing(mesh, k)) {
         return 0;
     }
-    let lines: HashSet<(u32, u32)> = mesh
-        .lines
-        .iter()
-        .map(|l| key(l.nodes[0], l.nodes[1]))
-        .collect();
+    let lines = mesh_lines(mesh);
     let mut turned = 0;
     for _ in 0..PASSES {
         let by_edge = by_edge(mesh, idx.iter().copied());
@@ -327,11 +332,7 @@ pub(crate) fn turn_flat_quads(
         .iter()
         .map(|&k| (sorted3(mesh.triangles[k].nodes), k))
         .collect();
-    let lines: HashSet<(u32, u32)> = mesh
-        .lines
-        .iter()
-        .map(|l| key(l.nodes[0], l.nodes[1]))
-        .collect();
+    let lines = mesh_lines(mesh);
     let by_edge = by_edge(mesh, idx.iter().copied());
     let mut touched: HashSet<usize> = HashSet::new();
     let mut removed = Vec::new();
@@ -371,17 +372,16 @@ mod tests {
     use crate::mesh::{Element, Node};
     use crate::model::EntityRef;
 
-    /// A square pyramid's corners (base co-circular at z = 0, apex above)
-    /// and the faces of their Delaunay tetrahedralization, which splits the
-    /// base along one diagonal.
-    fn pyramid() -> (Mesh, HashSet<[u32; 3]>) {
+    /// The nodes of a pyramid on the unit square at z = 0 (its corners
+    /// 0–3 co-circular) with its apex, node 4, at height `apex`.
+    fn square_pyramid(apex: f64) -> Mesh {
         let mut mesh = Mesh::default();
         for p in [
             [0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0],
             [1.0, 1.0, 0.0],
             [0.0, 1.0, 0.0],
-            [0.5, 0.5, 0.8],
+            [0.5, 0.5, apex],
         ] {
             mesh.nodes.push(Node {
                 pos: P3::new(p[0], p[1], p[2]),
@@ -389,6 +389,14 @@ mod tests {
                 params: [0.0, 0.0],
             });
         }
+        mesh
+    }
+
+    /// A square pyramid's corners (base co-circular at z = 0, apex above)
+    /// and the faces of their Delaunay tetrahedralization, which splits the
+    /// base along one diagonal.
+    fn pyramid() -> (Mesh, HashSet<[u32; 3]>) {
+        let mesh = square_pyramid(0.8);
         let coords: Vec<[f64; 3]> = mesh
             .nodes
             .iter()
@@ -454,20 +462,7 @@ mod tests {
     /// tetrahedron of the four co-circular base corners, on the inside of
     /// the base, and the two tetrahedra of the other split, 1–3, below it.
     fn flat_under_base() -> (Mesh, Vec<[u32; 4]>) {
-        let mut mesh = Mesh::default();
-        for p in [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.5, 0.5, -1.0],
-        ] {
-            mesh.nodes.push(Node {
-                pos: P3::new(p[0], p[1], p[2]),
-                entity: EntityRef::new(2, 0),
-                params: [0.0, 0.0],
-            });
-        }
+        let mut mesh = square_pyramid(-1.0);
         // outward: the base's normals +z, the sides' away from the axis
         for t in [[0, 1, 2], [0, 2, 3]] {
             mesh.triangles.push(tri(t, 0));

@@ -27,7 +27,7 @@
 //! after which the triangles still missing go to the refinement by places
 //! ([`crate::engine::refine`]), as before.
 
-use super::recover::{by_edge, key, sorted3, triangles_of, BoundaryDelaunay, Quad};
+use super::recover::{by_edge, key, mesh_lines, sorted3, triangles_of, BoundaryDelaunay, Quad};
 use crate::geom::P3;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -240,17 +240,8 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
     if faces.is_empty() {
         return;
     }
-    let idx: Vec<usize> = (0..mesh.triangles.len())
-        .filter(|&k| {
-            let e = mesh.triangles[k].entity;
-            e.dim == 2 && faces.contains(&e.id)
-        })
-        .collect();
-    let lines: HashSet<(u32, u32)> = mesh
-        .lines
-        .iter()
-        .map(|l| key(l.nodes[0], l.nodes[1]))
-        .collect();
+    let idx = triangles_of(mesh, faces);
+    let lines = mesh_lines(mesh);
     let pos = |mesh: &Mesh, g: u32| mesh.nodes[g as usize].pos;
     for _ in 0..LAWSON_PASSES {
         let by_edge = by_edge(mesh, idx.iter().copied());
