@@ -17,6 +17,9 @@
 //! on the CAD face and the face's boundary segments; only which diagonal
 //! of a quadrilateral of the face is an edge changes.
 //!
+//! After the connection, the same turn removes a flat tetrahedron that
+//! lies on such a quadrilateral inside the volume ([`turn_flat_quads`]).
+//!
 //! Invariants: only two triangles of the same face are turned together,
 //! never across a mesh line (a CAD edge or seam), never into an edge the
 //! mesh already has, and only when both new triangles are non-degenerate
