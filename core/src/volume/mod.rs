@@ -653,6 +653,8 @@ pub(super) fn mesh_volume(
     };
     loop {
         let boundary = Boundary::of(&job, mesh)?;
+        let t_try = std::time::Instant::now();
+        let staged = timings.stage1_s + timings.stage2_s;
         match attempt(&job, &boundary, lattice, warm, mesh, timings)? {
             Attempt::Done(mut rep) => {
                 if rejected.is_some() {
@@ -662,7 +664,10 @@ pub(super) fn mesh_volume(
             }
             Attempt::GiveUp(frac) => {
                 // nothing of the BCC attempt is in the mesh yet: nodes and
-                // tetrahedra are only written by a finished attempt
+                // tetrahedra are only written by a finished attempt; its
+                // time beyond its stage 1 was its connection
+                let staged = timings.stage1_s + timings.stage2_s - staged;
+                timings.connect_s += (t_try.elapsed().as_secs_f64() - staged).max(0.0);
                 rejected = Some(frac);
                 lattice = Lattice::Fcc;
             }
