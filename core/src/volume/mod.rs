@@ -831,22 +831,19 @@ fn remove_flat_quads(
     mesh: &mut crate::mesh::Mesh,
 ) -> usize {
     let n_fixed = boundary.n_fixed();
-    let flat =
-        |t: &[u32; 4]| crate::measure::tet_radius_ratio_of(&tm.pos, t) < tet::steiner::FLAT_Q;
-    if !tm
-        .tets
-        .iter()
-        .any(|t| t.iter().all(|&k| (k as usize) < n_fixed) && flat(t))
-    {
+    let flat: Vec<usize> = (0..tm.tets.len())
+        .filter(|&i| {
+            let t = &tm.tets[i];
+            t.iter().all(|&k| (k as usize) < n_fixed)
+                && crate::measure::tet_radius_ratio_of(&tm.pos, t) < tet::steiner::FLAT_Q
+        })
+        .collect();
+    if flat.is_empty() {
         return 0;
     }
-    let volumes = &job.model.volumes;
-    let earlier: std::collections::HashSet<u32> = volumes[..job.vi]
-        .iter()
-        .flat_map(|v| v.faces.iter().copied())
-        .collect();
+    let earlier = recover::earlier_faces(job.model, job.vi);
     let mut uses: std::collections::HashMap<u32, usize> = Default::default();
-    for &f in &volumes[job.vi].faces {
+    for &f in &job.model.volumes[job.vi].faces {
         *uses.entry(f).or_default() += 1;
     }
     // a face listed twice bounds the volume on both sides
@@ -855,13 +852,13 @@ fn remove_flat_quads(
         .filter(|&(f, n)| n == 1 && !earlier.contains(&f))
         .map(|(f, _)| f)
         .collect();
-    let gone = recover::turn_flat_quads(mesh, &faces, &boundary.fixed_ids, &tm.tets, flat);
-    let drop: std::collections::HashSet<usize> = gone.iter().copied().collect();
-    let mut k = 0;
-    tm.tets.retain(|_| {
-        k += 1;
-        !drop.contains(&(k - 1))
-    });
+    let gone = recover::turn_flat_quads(mesh, &faces, &boundary.fixed_ids, &tm.tets, &flat);
+    let mut keep = vec![true; tm.tets.len()];
+    for &i in &gone {
+        keep[i] = false;
+    }
+    let mut keep = keep.into_iter();
+    tm.tets.retain(|_| keep.next().unwrap_or(true));
     gone.len()
 }
 

@@ -291,9 +291,19 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
     turned
 }
 
+/// The faces of the volumes meshed before volume `vi` (volumes are meshed
+/// in order): their triangles are faces of tetrahedra already, so they are
+/// neither split nor turned for `vi`.
+pub(crate) fn earlier_faces(model: &crate::model::Model, vi: usize) -> HashSet<u32> {
+    model.volumes[..vi]
+        .iter()
+        .flat_map(|v| v.faces.iter().copied())
+        .collect()
+}
+
 /// Removes the flat tetrahedra that lie on a boundary quadrilateral and
 /// turns the quadrilateral's diagonal: a tetrahedron of four boundary
-/// nodes, flat (`flat`), two of whose faces are boundary triangles of one
+/// nodes, flat, two of whose faces are boundary triangles of one
 /// face sharing an edge, a planar quadrilateral whose corners are
 /// co-circular (a rectangular face smaller than the spacing, meshed as two
 /// triangles). The Delaunay tetrahedralization, unique under its symbolic
@@ -308,7 +318,8 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
 /// boundary is the turned face mesh: nothing else changes.
 ///
 /// `tets` are in local node ids; the first `global.len()` local nodes are
-/// the boundary nodes, `global` their ids in `mesh`. Only triangles of
+/// the boundary nodes, `global` their ids in `mesh`; `flat` indexes the
+/// flat tetrahedra of `tets` among boundary nodes. Only triangles of
 /// `faces` are turned (the caller leaves out the faces of volumes already
 /// meshed, whose tetrahedra use the triangles as they are), under the
 /// conditions of [`Quad::across`] and [`Quad::turn_keeps_facing`]. Returns
@@ -319,15 +330,9 @@ pub(crate) fn turn_flat_quads(
     faces: &HashSet<u32>,
     global: &[u32],
     tets: &[[u32; 4]],
-    flat: impl Fn(&[u32; 4]) -> bool,
+    flat: &[usize],
 ) -> Vec<usize> {
-    let candidates: Vec<(usize, [u32; 4])> = tets
-        .iter()
-        .enumerate()
-        .filter(|(_, t)| t.iter().all(|&k| (k as usize) < global.len()) && flat(t))
-        .map(|(i, t)| (i, t.map(|k| global[k as usize])))
-        .collect();
-    if candidates.is_empty() {
+    if flat.is_empty() {
         return Vec::new();
     }
     let idx = triangles_of(mesh, faces);
@@ -339,7 +344,8 @@ pub(crate) fn turn_flat_quads(
     let by_edge = by_edge(mesh, idx.iter().copied());
     let mut touched: HashSet<usize> = HashSet::new();
     let mut removed = Vec::new();
-    for (ti, g) in candidates {
+    for &ti in flat {
+        let g = tets[ti].map(|k| global[k as usize]);
         let on: Vec<usize> = TET_FACES
             .iter()
             .filter_map(|f| of_nodes.get(&sorted3(f.map(|i| g[i]))).copied())
@@ -513,20 +519,15 @@ mod tests {
         };
         assert_ne!(hull_of(&tets[1..]), faces_of(&mesh));
         let global: Vec<u32> = (0..5).collect();
-        let flat = |t: &[u32; 4]| {
-            let [a, b, c, d] = t.map(|k| mesh.nodes[k as usize].pos);
-            orient3d(&a, &b, &c, &d) == 0.0
-        };
-        let gone = {
-            let flat: Vec<bool> = tets.iter().map(flat).collect();
-            turn_flat_quads(
-                &mut mesh,
-                &[0, 1].into_iter().collect(),
-                &global,
-                &tets,
-                |t| flat[tets.iter().position(|u| u == t).unwrap()],
-            )
-        };
+        let [a, b, c, d] = tets[0].map(|k| mesh.nodes[k as usize].pos);
+        assert_eq!(orient3d(&a, &b, &c, &d), 0.0);
+        let gone = turn_flat_quads(
+            &mut mesh,
+            &[0, 1].into_iter().collect(),
+            &global,
+            &tets,
+            &[0],
+        );
         assert_eq!(gone, vec![0]);
         let left: Vec<[u32; 4]> = tets[1..].to_vec();
         assert_eq!(hull_of(&left), faces_of(&mesh));
@@ -560,7 +561,7 @@ mod tests {
                 &faces.into_iter().collect(),
                 &global,
                 &tets,
-                |t| t == &[0, 1, 2, 3],
+                &[0],
             );
             assert!(gone.is_empty());
             let after: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();

@@ -27,7 +27,9 @@
 //! after which the triangles still missing go to the refinement by places
 //! ([`crate::engine::refine`]), as before.
 
-use super::recover::{by_edge, key, mesh_lines, sorted3, triangles_of, BoundaryDelaunay, Quad};
+use super::recover::{
+    by_edge, earlier_faces, key, mesh_lines, sorted3, triangles_of, BoundaryDelaunay, Quad,
+};
 use crate::geom::P3;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
@@ -79,11 +81,7 @@ pub(crate) fn split_to_delaunay(
     delaunay: Option<&mut BoundaryDelaunay>,
 ) -> Splits {
     let faces: HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
-    // faces of the volumes meshed before: their triangles are in tetrahedra
-    let locked: HashSet<u32> = model.volumes[..vi]
-        .iter()
-        .flat_map(|v| v.faces.iter().copied())
-        .collect();
+    let locked = earlier_faces(model, vi);
     let mut out = Splits::default();
     let mut per: HashMap<EntityRef, u32> = HashMap::new();
     let idx = triangles_of(mesh, &faces);
