@@ -13,6 +13,7 @@
 //! one tetrahedron and a boundary edge an open ring), nodes never move.
 
 use crate::geom::{P3, V3};
+use rustc_hash::FxHashMap;
 
 use super::mesh::TetMesh;
 use super::star::{node_tets, objective_of, TARGET_Q};
@@ -24,6 +25,10 @@ use crate::measure::{orient3d, tet_radius_ratio_of, TET_FACES};
 /// a compressed table (`start`, `csr`), those added by flips in `extra`;
 /// dead ones are skipped when read.
 ///
+/// The maps are only looked up, never iterated, so their hasher cannot
+/// change a result; Fx instead of SipHash because `extra` is read for
+/// every edge and face asked about (5 % of as_0082's tetrahedral run).
+///
 /// Why not a `Vec` per node: building 470k of them (case K) cost more than
 /// the flips it serves; flips touch a few thousand nodes.
 struct FlipState<'a> {
@@ -33,17 +38,17 @@ struct FlipState<'a> {
     dead: Vec<bool>,
     start: Vec<u32>,
     csr: Vec<u32>,
-    extra: std::collections::HashMap<u32, Vec<u32>>,
+    extra: FxHashMap<u32, Vec<u32>>,
     /// Edge removals found not to meet the goal, with the tets of the ring
     /// then: tets are never changed in place (only killed and added) and
     /// nodes do not move, so while the ring holds the same tets the answer
     /// is the same. A sweep asks again for every bad tet sharing the edge
     /// and in every later sweep; the dynamic programme was most of the
     /// sliver pass's time (as_0053 tetrahedra).
-    failed_edges: std::collections::HashMap<(u32, u32), [u32; 7]>,
+    failed_edges: FxHashMap<(u32, u32), [u32; 7]>,
     /// 2-3 flips found not to meet the goal (sorted face → its two tets),
     /// the same way.
-    failed_faces: std::collections::HashMap<[u32; 3], [u32; 2]>,
+    failed_faces: FxHashMap<[u32; 3], [u32; 2]>,
 }
 
 impl<'a> FlipState<'a> {
