@@ -594,7 +594,9 @@ enum Attempt {
 /// [`mesh_volume`]: co-spherical quadrilaterals of the face meshes turned
 /// the way the tetrahedralization will have them ([`recover`]), then the
 /// triangles still missing split on the geometry ([`split`]; the new nodes
-/// are appended to `mesh.nodes`). Returns the pairs turned and the splits.
+/// are appended to `mesh.nodes`). Faces of volumes meshed before `vi` are
+/// neither turned nor split: their triangles are faces of that volume's
+/// tetrahedra already. Returns the pairs turned and the splits.
 pub(super) fn recover_boundary(
     model: &crate::model::Model,
     vi: usize,
@@ -603,8 +605,10 @@ pub(super) fn recover_boundary(
     let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
     let idx = recover::triangles_of(mesh, &faces);
     let mut delaunay = recover::BoundaryDelaunay::of(mesh, &idx);
+    let earlier = recover::earlier_faces(model, vi);
+    let turnable: std::collections::HashSet<u32> = faces.difference(&earlier).copied().collect();
     let flips = match delaunay.as_mut() {
-        Some(bd) => recover::flip_with(mesh, &idx, bd.faces()),
+        Some(bd) => recover::flip_with(mesh, &recover::triangles_of(mesh, &turnable), bd.faces()),
         None => 0,
     };
     (

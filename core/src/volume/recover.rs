@@ -465,6 +465,74 @@ mod tests {
         }
     }
 
+    /// Two pyramids on one square base, the upper one meshed first: the
+    /// base is a face of both volumes, split along the diagonal the lower
+    /// one's Delaunay tetrahedralization does not take. Recovering the
+    /// lower volume's boundary must leave the base as the upper volume's
+    /// tetrahedra have it (turning it would break that volume's
+    /// conformity); for the upper volume alone it turns as before.
+    #[test]
+    fn a_face_of_an_earlier_volume_is_not_turned() {
+        let mut mesh = square_pyramid(0.8);
+        mesh.nodes.push(Node {
+            pos: P3::new(0.5, 0.5, -0.8),
+            entity: EntityRef::new(2, 0),
+            params: [0.0, 0.0],
+        });
+        let coords: Vec<[f64; 3]> = [0, 1, 2, 3, 5]
+            .iter()
+            .map(|&k: &usize| {
+                let p = mesh.nodes[k].pos;
+                [p.x, p.y, p.z]
+            })
+            .collect();
+        // local ids 0–3 are nodes 0–3, local 4 is node 5
+        let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
+        let lower_faces: HashSet<[u32; 3]> = dt
+            .tets
+            .iter()
+            .flat_map(|t| TET_FACES.iter().map(move |f| sorted3(f.map(|i| t[i]))))
+            .collect();
+        // the base along the diagonal the lower volume's Delaunay does not
+        // use (normals up, as the upper volume's boundary has them)
+        let base = if lower_faces.contains(&[0, 1, 2]) {
+            [[0, 1, 3], [1, 2, 3]]
+        } else {
+            [[0, 1, 2], [0, 2, 3]]
+        };
+        for t in base {
+            mesh.triangles.push(tri(t, 0));
+        }
+        for t in [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]] {
+            mesh.triangles.push(tri(t, 1));
+        }
+        for t in [[1, 0, 5], [2, 1, 5], [3, 2, 5], [0, 3, 5]] {
+            mesh.triangles.push(tri(t, 2));
+        }
+        let volume = |faces: Vec<u32>| crate::model::Volume {
+            faces,
+            geometry: None,
+            name: None,
+        };
+        let model = crate::model::Model {
+            volumes: vec![volume(vec![0, 1]), volume(vec![0, 2])],
+            ..Default::default()
+        };
+        let before: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
+        let (turned, splits) = super::super::recover_boundary(&model, 1, &mut mesh);
+        assert_eq!(turned, 0);
+        assert_eq!(splits.count, 0);
+        let after: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
+        assert_eq!(after, before, "the shared base must stay as volume 0 has it");
+        // the same base is turned when it belongs to the lower volume alone
+        let alone = crate::model::Model {
+            volumes: vec![volume(vec![0, 2])],
+            ..Default::default()
+        };
+        let (turned, _) = super::super::recover_boundary(&alone, 0, &mut mesh);
+        assert_eq!(turned, 1);
+    }
+
     /// A square pyramid pointing down (apex at z = −1, the volume below
     /// its base), its base split along 0–2, and its tetrahedra as the
     /// perturbed Delaunay tetrahedralization can have them: the flat
