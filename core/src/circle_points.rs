@@ -39,6 +39,13 @@
 //! segment to neighbours at d were needles — as_40mm_capot.stp mean radius
 //! ratio 0.747, Gmsh 0.798; graded 0.85). `n` = 0 turns both off.
 //!
+//! Cusps keep the requested spacing: where two edges of a face leave a
+//! vertex tangentially (`cusp_ends`), the vertex and those edges within
+//! the requested spacing of it are not graded, because nodes close to
+//! such a tip make its triangles thinner, not better (see
+//! `CirclePoints::at_cusp`). Only where both edges are at least the
+//! spacing long.
+//!
 //! A face the graded spacing cannot mesh is released
 //! ([`CirclePoints::release`]): on it, its edges and their vertices the
 //! requested spacing applies again (the engine does this before refining
@@ -117,6 +124,55 @@ fn short_edge(
         .collect();
     Some((samples, length, c, d))
 }
+
+/// The cusps of `model`'s faces: consecutive edges of a face loop whose
+/// tangents leave their common vertex at most [`CUSP_ANGLE`] apart (the
+/// two curves meet tangentially and the face between them tapers to a
+/// point). Returns the two edges (lower id first) and the vertex of each.
+pub(crate) fn cusp_ends(model: &Model) -> Vec<([u32; 2], u32)> {
+    // the unit tangent of edge `e` leaving vertex `at` (one of its ends)
+    let leaving = |e: u32, at: u32| -> Option<crate::geom::V3> {
+        let me = &model.edges[e as usize];
+        let (t, sign) = if me.start == at {
+            (me.t0, 1.0)
+        } else {
+            (me.t1, -1.0)
+        };
+        let d = me.curve.d1(t) * sign;
+        let n = d.norm();
+        (n > 0.0 && n.is_finite()).then(|| d / n)
+    };
+    let mut out = Vec::new();
+    for f in &model.faces {
+        for l in &f.loops {
+            let k = l.edges.len();
+            if k < 2 {
+                continue;
+            }
+            for i in 0..k {
+                let (a, b) = (l.edges[i], l.edges[(i + 1) % k]);
+                if a.edge == b.edge {
+                    continue;
+                }
+                let ea = &model.edges[a.edge as usize];
+                // the vertex where use a ends and use b starts
+                let v = if a.forward { ea.end } else { ea.start };
+                let (Some(ta), Some(tb)) = (leaving(a.edge, v), leaving(b.edge, v)) else {
+                    continue;
+                };
+                if ta.angle(&tb) <= CUSP_ANGLE {
+                    out.push(([a.edge.min(b.edge), a.edge.max(b.edge)], v));
+                }
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// Tangents at most this far apart (radians) make a cusp ([`cusp_ends`]).
+pub(crate) const CUSP_ANGLE: f64 = 0.05;
 
 /// A point of a capped edge and the spacing there.
 #[derive(Clone, Copy, Debug)]
@@ -343,6 +399,10 @@ pub struct CirclePoints<'a> {
     face_released: Vec<bool>,
     edge_released: Vec<bool>,
     vertex_released: Vec<bool>,
+    /// Per edge: the points of its cusp vertices ([`cusp_ends`]); per
+    /// vertex: whether it is one.
+    cusp_edges: Vec<Vec<P3>>,
+    cusp_vertices: Vec<bool>,
     report: CirclePointsReport,
 }
 
@@ -432,6 +492,30 @@ impl<'a> CirclePoints<'a> {
             }));
         }
         let face_caps = face_caps(model, inner, n, &mut samples, &mut report);
+        let mut cusp_edges = vec![Vec::new(); model.edges.len()];
+        let mut cusp_vertices = vec![false; model.vertices.len()];
+        for (edges, v) in cusp_ends(model) {
+            let point = model.vertices[v as usize].point;
+            let d = inner.spacing(&SpacingQuery {
+                point,
+                entity: EntityRef::new(0, v),
+                params: [0.0, 0.0],
+            });
+            // only where both edges reach past the first node: an edge
+            // shorter than the spacing is one piece whatever it is asked
+            // for, and the requested spacing at its ends would only make
+            // its neighbours' triangles coarser next to it
+            let long = edges.iter().all(|&e| {
+                let me = &model.edges[e as usize];
+                crate::geom::length_between(me.curve.as_ref(), me.t0, me.t1) >= d
+            });
+            if long {
+                for e in edges {
+                    cusp_edges[e as usize].push(point);
+                }
+                cusp_vertices[v as usize] = true;
+            }
+        }
         if samples.is_empty() && face_caps.iter().all(Option::is_none) {
             return None;
         }
@@ -448,6 +532,8 @@ impl<'a> CirclePoints<'a> {
             face_released: vec![false; model.faces.len()],
             edge_released: vec![false; model.edges.len()],
             vertex_released: vec![false; model.vertices.len()],
+            cusp_edges,
+            cusp_vertices,
             report,
         };
         cp.edge_graded = model
@@ -540,6 +626,29 @@ impl<'a> CirclePoints<'a> {
             .get(edge as usize)
             .copied()
             .unwrap_or(false)
+    }
+
+    /// Whether query `q` (requested spacing `d` there) is at a cusp vertex
+    /// or on one of its two edges closer than `d` to it: there the
+    /// requested spacing applies.
+    ///
+    /// Why: where two edges meet tangentially, the triangle at the tip has
+    /// an angle of about s·Δκ/2 (s the distance to the first nodes, Δκ the
+    /// curves' difference of curvature), and the strip between the next
+    /// nodes a width of s²·Δκ/2: nodes close to the tip make both thin.
+    /// A short edge or a capped edge graded them there (as_0042 at
+    /// diag/25: first nodes 3.6 from the tip, triangles of 5.5° and 3.7°;
+    /// Gmsh's at 7–8, 12°).
+    fn at_cusp(&self, q: &SpacingQuery, d: f64) -> bool {
+        let id = q.entity.id as usize;
+        match q.entity.dim {
+            0 => self.cusp_vertices.get(id).copied().unwrap_or(false),
+            1 => self
+                .cusp_edges
+                .get(id)
+                .is_some_and(|vs| vs.iter().any(|v| (q.point - v).norm() < d)),
+            _ => false,
+        }
     }
 
     /// Whether the cap applies to a query on `e`.
@@ -959,7 +1068,7 @@ impl ConeNode {
 impl CirclePoints<'_> {
     /// The cap at query `q` below the requested spacing `d` there.
     fn capped(&self, q: &SpacingQuery, d: f64) -> f64 {
-        if !self.applies(q.entity) {
+        if !self.applies(q.entity) || self.at_cusp(q, d) {
             return d;
         }
         let own = match (q.entity.dim, self.face_caps.get(q.entity.id as usize)) {
@@ -1076,6 +1185,94 @@ mod tests {
         assert!((cp.report().edges[0].radius - 5.0).abs() < 1e-9);
         assert_eq!(cp.constant_on(EntityRef::new(3, 0)), Some(12.0));
         assert_eq!(cp.constant_on(EntityRef::new(1, 0)), None);
+    }
+
+    /// A face between a quarter circle of radius 10 and the line x = 10,
+    /// tangent to it at (10, 0): a cusp there. A short edge at the cusp
+    /// grades the spacing around it; on the cusp's two edges within d of
+    /// the cusp, and at the cusp vertex, the requested d applies instead;
+    /// inside the face and farther along the edges the graded spacing does.
+    #[test]
+    fn a_cusp_keeps_the_requested_spacing_on_its_edges() {
+        use crate::geom::{Plane, Segment};
+        use crate::model::{EdgeUse, Face, Loop};
+        let mut m = Model::default();
+        for p in [
+            [10.0, 0.0, 0.0],
+            [0.0, 10.0, 0.0],
+            [10.0, 30.0, 0.0],
+            [10.0, 0.0, 1.0],
+        ] {
+            m.vertices.push(Vertex {
+                point: P3::new(p[0], p[1], p[2]),
+                name: None,
+            });
+        }
+        let edge = |curve: Arc<dyn Curve>, t1: f64, start: u32, end: u32| Edge {
+            curve,
+            t0: 0.0,
+            t1,
+            start,
+            end,
+            name: None,
+        };
+        let seg = |a: usize, b: usize| -> Arc<dyn Curve> {
+            Arc::new(Segment(m.vertices[a].point, m.vertices[b].point))
+        };
+        let (s1, s2, s3) = (seg(1, 2), seg(2, 0), seg(0, 3));
+        m.edges.push(edge(
+            Arc::new(Circle(10.0)),
+            std::f64::consts::FRAC_PI_2,
+            0,
+            1,
+        ));
+        m.edges.push(edge(s1, 1.0, 1, 2));
+        m.edges.push(edge(s2, 1.0, 2, 0));
+        // the short edge (1 < SHORT_EDGE·12), a wire at the cusp
+        m.edges.push(edge(s3, 1.0, 0, 3));
+        let uses = [0, 1, 2].map(|e| EdgeUse {
+            edge: e,
+            forward: true,
+        });
+        m.faces.push(Face {
+            surface: Arc::new(Plane::xy()),
+            loops: vec![Loop {
+                edges: uses.to_vec(),
+            }],
+            embedded_edges: vec![],
+            embedded_vertices: vec![],
+            name: None,
+        });
+        assert_eq!(cusp_ends(&m), vec![([0, 2], 0)]);
+        let d = Constant(12.0);
+        let cp = CirclePoints::new(&m, &d, 7).expect("the short edge grades");
+        let q = |p: P3, dim: u8, id: u32| SpacingQuery {
+            point: p,
+            entity: EntityRef::new(dim, id),
+            params: [0.0, 0.0],
+        };
+        let on_arc = Circle(10.0).point(0.5);
+        assert_eq!(cp.spacing(&q(on_arc, 1, 0)), 12.0);
+        assert_eq!(cp.spacing(&q(P3::new(10.0, 4.0, 0.0), 1, 2)), 12.0);
+        assert_eq!(cp.spacing(&q(m.vertices[0].point, 0, 0)), 12.0);
+        // graded: inside the face, on the line farther than d from the
+        // cusp, and on the edge that does not make the cusp
+        // (the short edge grades from SHORT_EDGE_FLOOR·d = 2, not its length)
+        let graded = |p: P3| SHORT_EDGE_FLOOR * 12.0 + GRADE * (p - P3::new(10.0, 0.0, 0.0)).norm();
+        let inside = P3::new(9.8, 3.0, 0.0);
+        assert!(cp.spacing(&q(inside, 2, 0)) <= graded(inside) + 1e-9);
+        let far = P3::new(10.0, 14.0, 0.0);
+        assert!(cp.spacing(&q(far, 1, 2)) < 12.0);
+        let other = P3::new(2.0, 14.0, 0.0);
+        assert!(cp.spacing(&q(other, 1, 1)) < 12.0);
+        // with the arc shorter than the spacing (radius 5: 7.9 < 12) the
+        // cusp keeps the graded spacing (the other edges stay where they
+        // were: only the arc's length and its tangent at the cusp matter)
+        let mut short = m.clone();
+        short.edges[0].curve = Arc::new(Circle(5.0));
+        short.vertices[0].point = P3::new(5.0, 0.0, 0.0);
+        let cp = CirclePoints::new(&short, &d, 7).expect("the short edge grades");
+        assert!(cp.spacing(&q(Circle(5.0).point(0.2), 1, 0)) < 12.0);
     }
 
     /// The tree's pruned query is the brute-force minimum over the samples

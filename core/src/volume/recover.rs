@@ -523,7 +523,10 @@ mod tests {
         assert_eq!(turned, 0);
         assert_eq!(splits.count, 0);
         let after: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.nodes).collect();
-        assert_eq!(after, before, "the shared base must stay as volume 0 has it");
+        assert_eq!(
+            after, before,
+            "the shared base must stay as volume 0 has it"
+        );
         // the same base is turned when it belongs to the lower volume alone
         let alone = crate::model::Model {
             volumes: vec![volume(vec![0, 2])],
