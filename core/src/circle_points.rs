@@ -1187,49 +1187,44 @@ mod tests {
         assert_eq!(cp.constant_on(EntityRef::new(1, 0)), None);
     }
 
-    /// A face between a quarter circle of radius 10 and the line x = 10,
-    /// tangent to it at (10, 0): a cusp there. A short edge at the cusp
-    /// grades the spacing around it; on the cusp's two edges within d of
-    /// the cusp, and at the cusp vertex, the requested d applies instead;
-    /// inside the face and farther along the edges the graded spacing does.
-    #[test]
-    fn a_cusp_keeps_the_requested_spacing_on_its_edges() {
+    /// A face between a quarter circle of radius `r` and the line x = r,
+    /// tangent to it at (r, 0): a cusp there, and a short edge at the cusp
+    /// (a wire from (r, 0, 0) to (r, 0, 1)) from which the spacing grades.
+    fn cusp_model(r: f64) -> Model {
         use crate::geom::{Plane, Segment};
         use crate::model::{EdgeUse, Face, Loop};
         let mut m = Model::default();
         for p in [
-            [10.0, 0.0, 0.0],
-            [0.0, 10.0, 0.0],
-            [10.0, 30.0, 0.0],
-            [10.0, 0.0, 1.0],
+            [r, 0.0, 0.0],
+            [0.0, r, 0.0],
+            [r, 2.0 * r, 0.0],
+            [r, 0.0, 1.0],
         ] {
             m.vertices.push(Vertex {
                 point: P3::new(p[0], p[1], p[2]),
                 name: None,
             });
         }
-        let edge = |curve: Arc<dyn Curve>, t1: f64, start: u32, end: u32| Edge {
-            curve,
-            t0: 0.0,
-            t1,
-            start,
-            end,
-            name: None,
-        };
         let seg = |a: usize, b: usize| -> Arc<dyn Curve> {
             Arc::new(Segment(m.vertices[a].point, m.vertices[b].point))
         };
-        let (s1, s2, s3) = (seg(1, 2), seg(2, 0), seg(0, 3));
-        m.edges.push(edge(
-            Arc::new(Circle(10.0)),
-            std::f64::consts::FRAC_PI_2,
-            0,
-            1,
-        ));
-        m.edges.push(edge(s1, 1.0, 1, 2));
-        m.edges.push(edge(s2, 1.0, 2, 0));
-        // the short edge (1 < SHORT_EDGE·12), a wire at the cusp
-        m.edges.push(edge(s3, 1.0, 0, 3));
+        let curves: [(Arc<dyn Curve>, f64); 4] = [
+            (Arc::new(Circle(r)), std::f64::consts::FRAC_PI_2),
+            (seg(1, 2), 1.0),
+            (seg(2, 0), 1.0),
+            (seg(0, 3), 1.0),
+        ];
+        for (k, (curve, t1)) in curves.into_iter().enumerate() {
+            let (start, end) = [(0, 1), (1, 2), (2, 0), (0, 3)][k];
+            m.edges.push(Edge {
+                curve,
+                t0: 0.0,
+                t1,
+                start,
+                end,
+                name: None,
+            });
+        }
         let uses = [0, 1, 2].map(|e| EdgeUse {
             edge: e,
             forward: true,
@@ -1243,36 +1238,39 @@ mod tests {
             embedded_vertices: vec![],
             name: None,
         });
+        m
+    }
+
+    /// At a cusp (`cusp_model(20)`, d = 12) the short edge's grading does
+    /// not reach the cusp's two edges within d of the cusp, nor the cusp
+    /// vertex: the requested d applies there; inside the face and farther
+    /// along the line the graded spacing does. An arc shorter than d
+    /// (radius 5) leaves the cusp graded.
+    #[test]
+    fn a_cusp_keeps_the_requested_spacing_on_its_edges() {
+        let m = cusp_model(20.0);
         assert_eq!(cusp_ends(&m), vec![([0, 2], 0)]);
         let d = Constant(12.0);
         let cp = CirclePoints::new(&m, &d, 7).expect("the short edge grades");
-        let q = |p: P3, dim: u8, id: u32| SpacingQuery {
+        let q = |p: P3, dim: u8, id: u32, t: f64| SpacingQuery {
             point: p,
             entity: EntityRef::new(dim, id),
-            params: [0.0, 0.0],
+            params: [t, 0.0],
         };
-        let on_arc = Circle(10.0).point(0.5);
-        assert_eq!(cp.spacing(&q(on_arc, 1, 0)), 12.0);
-        assert_eq!(cp.spacing(&q(P3::new(10.0, 4.0, 0.0), 1, 2)), 12.0);
-        assert_eq!(cp.spacing(&q(m.vertices[0].point, 0, 0)), 12.0);
-        // graded: inside the face, on the line farther than d from the
-        // cusp, and on the edge that does not make the cusp
-        // (the short edge grades from SHORT_EDGE_FLOOR·d = 2, not its length)
-        let graded = |p: P3| SHORT_EDGE_FLOOR * 12.0 + GRADE * (p - P3::new(10.0, 0.0, 0.0)).norm();
-        let inside = P3::new(9.8, 3.0, 0.0);
-        assert!(cp.spacing(&q(inside, 2, 0)) <= graded(inside) + 1e-9);
-        let far = P3::new(10.0, 14.0, 0.0);
-        assert!(cp.spacing(&q(far, 1, 2)) < 12.0);
-        let other = P3::new(2.0, 14.0, 0.0);
-        assert!(cp.spacing(&q(other, 1, 1)) < 12.0);
-        // with the arc shorter than the spacing (radius 5: 7.9 < 12) the
-        // cusp keeps the graded spacing (the other edges stay where they
-        // were: only the arc's length and its tangent at the cusp matter)
-        let mut short = m.clone();
-        short.edges[0].curve = Arc::new(Circle(5.0));
-        short.vertices[0].point = P3::new(5.0, 0.0, 0.0);
-        let cp = CirclePoints::new(&short, &d, 7).expect("the short edge grades");
-        assert!(cp.spacing(&q(Circle(5.0).point(0.2), 1, 0)) < 12.0);
+        assert_eq!(cp.spacing(&q(Circle(20.0).point(0.2), 1, 0, 0.2)), 12.0);
+        assert_eq!(cp.spacing(&q(P3::new(20.0, 4.0, 0.0), 1, 2, 0.9)), 12.0);
+        assert_eq!(cp.spacing(&q(m.vertices[0].point, 0, 0, 0.0)), 12.0);
+        assert!(cp.cusp_edges[1].is_empty(), "edge 1 makes no cusp");
+        // graded (from SHORT_EDGE_FLOOR·d = 2, not the short edge's length)
+        let graded = |p: P3| SHORT_EDGE_FLOOR * 12.0 + GRADE * (p - P3::new(20.0, 0.0, 0.0)).norm();
+        let inside = P3::new(19.9, 3.0, 0.0);
+        assert!(cp.spacing(&q(inside, 2, 0, 0.0)) <= graded(inside) + 1e-9);
+        let far = P3::new(20.0, 14.0, 0.0);
+        assert!(cp.spacing(&q(far, 1, 2, 0.65)) < 12.0);
+        // an arc shorter than the spacing (7.9 < 12): graded as before
+        let cp = CirclePoints::new(&cusp_model(5.0), &d, 7).expect("graded");
+        assert!(cp.cusp_edges[0].is_empty());
+        assert!(cp.spacing(&q(Circle(5.0).point(0.2), 1, 0, 0.2)) < 12.0);
     }
 
     /// The tree's pruned query is the brute-force minimum over the samples
