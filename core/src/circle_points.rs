@@ -171,6 +171,35 @@ pub(crate) fn cusp_ends(model: &Model) -> Vec<([u32; 2], u32)> {
     out
 }
 
+/// Per edge the points of its cusp vertices, per vertex whether it is
+/// one: the cusps of [`cusp_ends`] whose two edges are both at least the
+/// requested spacing `inner` long at the vertex (an edge shorter than the
+/// spacing is one piece whatever it is asked for, and the requested spacing
+/// at its ends would only make its neighbours' triangles coarser there).
+fn cusps(model: &Model, inner: &dyn Spacing) -> (Vec<Vec<P3>>, Vec<bool>) {
+    let mut cusp_edges = vec![Vec::new(); model.edges.len()];
+    let mut cusp_vertices = vec![false; model.vertices.len()];
+    for (edges, v) in cusp_ends(model) {
+        let point = model.vertices[v as usize].point;
+        let d = inner.spacing(&SpacingQuery {
+            point,
+            entity: EntityRef::new(0, v),
+            params: [0.0, 0.0],
+        });
+        let long = edges.iter().all(|&e| {
+            let me = &model.edges[e as usize];
+            crate::geom::length_between(me.curve.as_ref(), me.t0, me.t1) >= d
+        });
+        if long {
+            for e in edges {
+                cusp_edges[e as usize].push(point);
+            }
+            cusp_vertices[v as usize] = true;
+        }
+    }
+    (cusp_edges, cusp_vertices)
+}
+
 /// Tangents at most this far apart (radians) make a cusp ([`cusp_ends`]).
 pub(crate) const CUSP_ANGLE: f64 = 0.05;
 
@@ -492,30 +521,7 @@ impl<'a> CirclePoints<'a> {
             }));
         }
         let face_caps = face_caps(model, inner, n, &mut samples, &mut report);
-        let mut cusp_edges = vec![Vec::new(); model.edges.len()];
-        let mut cusp_vertices = vec![false; model.vertices.len()];
-        for (edges, v) in cusp_ends(model) {
-            let point = model.vertices[v as usize].point;
-            let d = inner.spacing(&SpacingQuery {
-                point,
-                entity: EntityRef::new(0, v),
-                params: [0.0, 0.0],
-            });
-            // only where both edges reach past the first node: an edge
-            // shorter than the spacing is one piece whatever it is asked
-            // for, and the requested spacing at its ends would only make
-            // its neighbours' triangles coarser next to it
-            let long = edges.iter().all(|&e| {
-                let me = &model.edges[e as usize];
-                crate::geom::length_between(me.curve.as_ref(), me.t0, me.t1) >= d
-            });
-            if long {
-                for e in edges {
-                    cusp_edges[e as usize].push(point);
-                }
-                cusp_vertices[v as usize] = true;
-            }
-        }
+        let (cusp_edges, cusp_vertices) = cusps(model, inner);
         if samples.is_empty() && face_caps.iter().all(Option::is_none) {
             return None;
         }
