@@ -605,10 +605,14 @@ pub(super) fn recover_boundary(
     let faces: std::collections::HashSet<u32> = model.volumes[vi].faces.iter().copied().collect();
     let idx = recover::triangles_of(mesh, &faces);
     let mut delaunay = recover::BoundaryDelaunay::of(mesh, &idx);
-    let earlier = recover::earlier_faces(model, vi);
-    let turnable: std::collections::HashSet<u32> = faces.difference(&earlier).copied().collect();
+    let own = recover::own_faces(model, vi);
+    let turnable: Vec<usize> = idx
+        .iter()
+        .copied()
+        .filter(|&k| own.contains(&mesh.triangles[k].entity.id))
+        .collect();
     let flips = match delaunay.as_mut() {
-        Some(bd) => recover::flip_with(mesh, &recover::triangles_of(mesh, &turnable), bd.faces()),
+        Some(bd) => recover::flip_with(mesh, &turnable, bd.faces()),
         None => 0,
     };
     (
@@ -845,17 +849,13 @@ fn remove_flat_quads(
     if flat.is_empty() {
         return 0;
     }
-    let earlier = recover::earlier_faces(job.model, job.vi);
     let mut uses: std::collections::HashMap<u32, usize> = Default::default();
     for &f in &job.model.volumes[job.vi].faces {
         *uses.entry(f).or_default() += 1;
     }
     // a face listed twice bounds the volume on both sides
-    let faces = uses
-        .into_iter()
-        .filter(|&(f, n)| n == 1 && !earlier.contains(&f))
-        .map(|(f, _)| f)
-        .collect();
+    let mut faces = recover::own_faces(job.model, job.vi);
+    faces.retain(|f| uses[f] == 1);
     let gone = recover::turn_flat_quads(mesh, &faces, &boundary.fixed_ids, &tm.tets, &flat);
     let mut keep = vec![true; tm.tets.len()];
     for &i in &gone {

@@ -301,6 +301,18 @@ pub(crate) fn earlier_faces(model: &crate::model::Model, vi: usize) -> HashSet<u
         .collect()
 }
 
+/// The faces of volume `vi` that it may change (turn or split): those no
+/// volume meshed before it uses ([`earlier_faces`]).
+pub(crate) fn own_faces(model: &crate::model::Model, vi: usize) -> HashSet<u32> {
+    let earlier = earlier_faces(model, vi);
+    model.volumes[vi]
+        .faces
+        .iter()
+        .copied()
+        .filter(|f| !earlier.contains(f))
+        .collect()
+}
+
 /// Removes the flat tetrahedra that lie on a boundary quadrilateral and
 /// turns the quadrilateral's diagonal: a tetrahedron of four boundary
 /// nodes, flat, two of whose faces are boundary triangles of one
@@ -406,18 +418,25 @@ mod tests {
     /// base along one diagonal.
     fn pyramid() -> (Mesh, HashSet<[u32; 3]>) {
         let mesh = square_pyramid(0.8);
-        let coords: Vec<[f64; 3]> = mesh
-            .nodes
+        let faces = delaunay_faces(&mesh, &[0, 1, 2, 3, 4]);
+        (mesh, faces)
+    }
+
+    /// The faces (sorted, local ids: positions in `nodes`) of the Delaunay
+    /// tetrahedralization of `mesh`'s nodes `nodes`.
+    fn delaunay_faces(mesh: &Mesh, nodes: &[usize]) -> HashSet<[u32; 3]> {
+        let coords: Vec<[f64; 3]> = nodes
             .iter()
-            .map(|n| [n.pos.x, n.pos.y, n.pos.z])
+            .map(|&k| {
+                let p = mesh.nodes[k].pos;
+                [p.x, p.y, p.z]
+            })
             .collect();
         let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
-        let faces = dt
-            .tets
+        dt.tets
             .iter()
             .flat_map(|t| TET_FACES.iter().map(move |f| sorted3(f.map(|i| t[i]))))
-            .collect();
-        (mesh, faces)
+            .collect()
     }
 
     fn tri(nodes: [u32; 3], face: u32) -> Element<3> {
@@ -479,20 +498,8 @@ mod tests {
             entity: EntityRef::new(2, 0),
             params: [0.0, 0.0],
         });
-        let coords: Vec<[f64; 3]> = [0, 1, 2, 3, 5]
-            .iter()
-            .map(|&k: &usize| {
-                let p = mesh.nodes[k].pos;
-                [p.x, p.y, p.z]
-            })
-            .collect();
         // local ids 0–3 are nodes 0–3, local 4 is node 5
-        let dt = bubblemesh_delaunay::tetrahedralize(&coords).unwrap();
-        let lower_faces: HashSet<[u32; 3]> = dt
-            .tets
-            .iter()
-            .flat_map(|t| TET_FACES.iter().map(move |f| sorted3(f.map(|i| t[i]))))
-            .collect();
+        let lower_faces = delaunay_faces(&mesh, &[0, 1, 2, 3, 5]);
         // the base along the diagonal the lower volume's Delaunay does not
         // use (normals up, as the upper volume's boundary has them)
         let base = if lower_faces.contains(&[0, 1, 2]) {
