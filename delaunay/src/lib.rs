@@ -38,7 +38,10 @@
 #![warn(missing_docs)]
 
 mod pred;
+mod relocate;
 mod sort;
+
+pub use relocate::Moved;
 
 use pred::{insph, orient, perturbed_inside};
 

@@ -396,6 +396,9 @@ pub struct VolumeReport {
     pub recovery_removed: usize,
     /// Optimal-Delaunay smoothing iterations.
     pub odt_iterations: usize,
+    /// Of those, the iterations whose tetrahedralization was built anew
+    /// (the others moved the last one's by flips).
+    pub odt_rebuilt: usize,
     /// Seconds in ODT smoothing, the conforming Delaunay connection and
     /// sliver removal.
     pub odt_s: f64,
@@ -781,7 +784,9 @@ fn attempt(
             },
             ..Default::default()
         };
-        rep.odt_iterations = tet::odt::odt_smooth(&mut tm, &params, inside).iterations;
+        let odt = tet::odt::odt_smooth(&mut tm, &params, inside);
+        rep.odt_iterations = odt.iterations;
+        rep.odt_rebuilt = odt.rebuilt;
     }
     rep.odt_s = t3.elapsed().as_secs_f64();
     // a re-meshing keeps the old tetrahedra among its kept nodes

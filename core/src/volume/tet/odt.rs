@@ -17,11 +17,13 @@
 use super::mesh::TetMesh;
 use crate::geom::P3;
 use crate::measure::tet_circumcentre;
+use bubblemesh_delaunay::Moved;
 
 /// ODT smoothing's tuning.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct OdtParams {
-    /// Iterations (each a Delaunay tetrahedralization of all nodes).
+    /// Iterations (each needs the Delaunay tetrahedralization of all nodes:
+    /// the first is built, the others moved from the last by flips).
     pub iterations: usize,
     /// Largest move of a node per iteration, in units of its spacing.
     pub max_step: f64,
@@ -57,13 +59,17 @@ pub(crate) struct OdtStats {
     /// Iterations done (it stops early when no node moves more than
     /// 0.001·d).
     pub iterations: usize,
+    /// Iterations whose tetrahedralization was built anew rather than
+    /// moved from the last one's (the first, and those where flips could
+    /// not reach it).
+    pub rebuilt: usize,
 }
 
 /// Moves the free nodes (`mesh.movable`) towards the spacing-weighted mean
 /// of the circumcentres of their Delaunay tetrahedra, keeping each where
 /// `inside` accepts it. `mesh.tets` is not read (each iteration
-/// tetrahedralizes the nodes afresh) and not changed: the caller connects
-/// the smoothed nodes.
+/// tetrahedralizes the nodes: the first anew, the others by moving the last
+/// iteration's) and not changed: the caller connects the smoothed nodes.
 ///
 /// Why `inside` is a closure: the volume's inside test belongs to the
 /// volume, which calls this pass, not the other way round.
@@ -71,6 +77,17 @@ pub(crate) fn odt_smooth(
     mesh: &mut TetMesh,
     params: &OdtParams,
     inside: impl Fn(&P3) -> bool,
+) -> OdtStats {
+    smooth(mesh, params, inside, false)
+}
+
+/// [`odt_smooth`], with every iteration's tetrahedralization built anew
+/// where `rebuild` is set (a test compares the two).
+fn smooth(
+    mesh: &mut TetMesh,
+    params: &OdtParams,
+    inside: impl Fn(&P3) -> bool,
+    rebuild: bool,
 ) -> OdtStats {
     let TetMesh {
         pos, movable, d, ..
@@ -100,6 +117,10 @@ pub(crate) fn odt_smooth(
         (0..n as u32).collect()
     };
     let mut done = 0;
+    let mut rebuilt = 0;
+    // The tetrahedralization of the last iteration, moved to the new
+    // positions by flips (`Delaunay3::moved`): the same tets as a new build.
+    let mut tri: Option<bubblemesh_delaunay::Delaunay3> = None;
     for _ in 0..params.iterations {
         let coords: Vec<[f64; 3]> = active
             .iter()
@@ -108,12 +129,29 @@ pub(crate) fn odt_smooth(
                 [p.x, p.y, p.z]
             })
             .collect();
-        let Ok(dt) = bubblemesh_delaunay::tetrahedralize(&coords) else {
+        let next = match tri.take().filter(|_| !rebuild) {
+            None => bubblemesh_delaunay::Delaunay3::new(&coords).map(|d| (d, Moved::Rebuilt)),
+            Some(d) => d.moved(&coords),
+        };
+        let Ok((dt, how)) = next else {
             break;
         };
+        rebuilt += usize::from(how == Moved::Rebuilt);
+        // In one order whatever the tets' storage order (which differs
+        // between a new build and a moved one), so that the sums below, and
+        // the positions, do not depend on how the tets were reached.
+        let mut tets: Vec<[u32; 4]> = dt
+            .tets()
+            .map(|mut t| {
+                t.sort_unstable();
+                t
+            })
+            .collect();
+        tets.sort_unstable();
+        tri = Some(dt);
         let mut acc = vec![nalgebra::Vector3::<f64>::zeros(); n];
         let mut wsum = vec![0.0f64; n];
-        for t in &dt.tets {
+        for t in &tets {
             let t = t.map(|k| active[k as usize]);
             let [a, b, c, e] = t.map(|k| pos[k as usize]);
             let Some(cc) = tet_circumcentre(&a, &b, &c, &e) else {
@@ -152,7 +190,10 @@ pub(crate) fn odt_smooth(
             break;
         }
     }
-    OdtStats { iterations: done }
+    OdtStats {
+        iterations: done,
+        rebuilt,
+    }
 }
 
 #[cfg(test)]
@@ -183,6 +224,22 @@ mod tests {
         assert_positive(&mesh.pos, &tets);
         let m1 = mean_q(&mesh.pos, &tets);
         assert!(m1 >= m0, "mean {m0} -> {m1}");
+    }
+
+    /// The tetrahedra of an iteration moved from the last one's by flips
+    /// are those of a new build but in another storage order; the sums run
+    /// in one order, so the nodes end on the same bits either way.
+    #[test]
+    fn moved_and_rebuilt_tetrahedralizations_smooth_to_the_same_bits() {
+        let mut moved = jittered_mesh(9, 0.4);
+        let mut rebuilt = moved.clone();
+        let inside = |p: &P3| (0..3).all(|k| p[k] > 0.0 && p[k] < 8.0);
+        let a = smooth(&mut moved, &OdtParams::default(), inside, false);
+        let b = smooth(&mut rebuilt, &OdtParams::default(), inside, true);
+        assert_eq!(a.iterations, b.iterations);
+        assert_eq!(b.rebuilt, b.iterations);
+        assert!(a.rebuilt < a.iterations, "every iteration was rebuilt");
+        assert_eq!(moved.pos, rebuilt.pos);
     }
 
     /// A warm start's local smoothing (`OdtParams::local`: only the free
