@@ -9,9 +9,10 @@
 //! that are no longer Delaunay costs a fraction of a rebuild.
 //!
 //! How (Lawson's flips in 3D, Joe 1989; Edelsbrunner & Shah 1996):
-//! 1. the vertices move one at a time; one whose move would turn a tet of
-//!    its star inside out (or flat) stays where it is for now, and a moved
-//!    vertex on the convex hull sends the whole to a new build;
+//! 1. the vertices move; the moves of a tet's vertices that turn it inside
+//!    out (or flat) are taken back, and of the tets that this turns in turn,
+//!    until every tet is positive; a moved vertex on the convex hull sends
+//!    the whole to a new build;
 //! 2. every face with a moved vertex among its tets' five is checked with
 //!    the perturbed in-sphere test of the batch build, and each face that
 //!    fails is flipped: 2→3 where the segment between the two apexes crosses
@@ -97,62 +98,65 @@ impl Delaunay3 {
         if !any {
             return Some((0, 0));
         }
-        // Each vertex's live tets (compressed rows), to move the vertices one
-        // at a time and check their stars.
-        let mut first = vec![0u32; n + 1];
-        for v in self.tv.iter().filter(|v| v[0] != DEAD) {
-            for &x in v.iter().filter(|&&x| x != INF) {
-                first[x as usize + 1] += 1;
+        // Move them all, then take back the moves of the vertices of every
+        // tet turned inside out (or flat), and of the tets that this turns
+        // in turn, until every tet is positive: in the end each tet has its
+        // vertices where it was valid or where it was checked.
+        let old = self.pts.clone();
+        for (i, m) in moved.iter().enumerate() {
+            if *m {
+                self.pts[i] = points[self.ext[i] as usize];
             }
         }
-        for i in 0..n {
-            first[i + 1] += first[i];
-        }
-        let mut fill = first.clone();
-        let mut star = vec![0u32; first[n] as usize];
-        for (t, v) in self.tv.iter().enumerate().filter(|(_, v)| v[0] != DEAD) {
-            for &x in v.iter().filter(|&&x| x != INF) {
-                star[fill[x as usize] as usize] = t as u32;
-                fill[x as usize] += 1;
-            }
-        }
-        // A vertex whose star would turn inside out stays where it is.
-        let mut deferred = Vec::new();
-        for i in 0..n {
-            if !moved[i] {
-                continue;
-            }
-            let tets = &star[first[i] as usize..first[i + 1] as usize];
-            if tets.iter().any(|&t| is_hull(&self.tv[t as usize])) {
+        let touches =
+            |v: &[u32; 4], moved: &[bool]| v.iter().any(|&x| x != INF && moved[x as usize]);
+        let mut back: Vec<u32> = Vec::new();
+        for v in self
+            .tv
+            .iter()
+            .filter(|v| v[0] != DEAD && touches(v, &moved))
+        {
+            if is_hull(v) {
                 return None;
             }
-            let old = self.pts[i];
-            self.pts[i] = points[self.ext[i] as usize];
-            let positive = tets.iter().all(|&t| {
-                let v = &self.tv[t as usize];
-                let p = |k: usize| &self.pts[v[k] as usize];
-                orient(p(0), p(1), p(2), p(3)) > 0.0
-            });
-            if !positive {
-                self.pts[i] = old;
-                moved[i] = false;
-                deferred.push(i as u32);
+            if !self.positive(v) {
+                back.extend(v.iter().filter(|&&x| moved[x as usize]));
             }
         }
-        let touches = |v: &[u32; 4]| v.iter().any(|&x| x != INF && moved[x as usize]);
+        let mut deferred = Vec::new();
+        let mut star = Vec::new();
+        while let Some(x) = back.pop() {
+            if !moved[x as usize] {
+                continue;
+            }
+            moved[x as usize] = false;
+            self.pts[x as usize] = old[x as usize];
+            deferred.push(x);
+            self.star_of(x, &mut star);
+            for &t in &star {
+                let v = &self.tv[t as usize];
+                if !self.positive(v) {
+                    back.extend(v.iter().filter(|&&y| moved[y as usize]));
+                }
+            }
+        }
+        deferred.sort_unstable();
+        // The faces that are no longer locally Delaunay, each once: from its
+        // lower tet, or from the only one of its two tets that touches a
+        // moved vertex.
         let mut queue: Vec<(u32, u8)> = Vec::new();
         for (t, v) in self.tv.iter().enumerate() {
-            if v[0] == DEAD || is_hull(v) || !touches(v) {
+            if v[0] == DEAD || is_hull(v) || !touches(v, &moved) {
                 continue;
             }
             for (i, &l) in self.tn[t].iter().enumerate() {
                 let u = (l >> 2) as usize;
-                // Each face once: from its lower tet, or from the only one
-                // of its two tets that touches a moved vertex.
-                if u > t && touches(&self.tv[u]) {
+                if u > t && touches(&self.tv[u], &moved) {
                     continue;
                 }
-                queue.push((t as u32, i as u8));
+                if !self.locally_delaunay(t as u32, i) {
+                    queue.push((t as u32, i as u8));
+                }
             }
         }
         let cap = MAX_FLIPS_PER_POINT * n + 1000;
@@ -216,24 +220,13 @@ impl Delaunay3 {
     /// `None` (nothing changed) where `x` is on the hull, a duplicate, or the
     /// fill does not match the star's boundary.
     fn remove_vertex(&mut self, x: u32) -> Option<u32> {
-        let t0 = self.vtet[x as usize];
-        if t0 == NONE {
+        if self.vtet[x as usize] == NONE {
             return None;
         }
-        let mut star = vec![t0];
-        let mut k = 0;
-        while k < star.len() {
-            let t = star[k] as usize;
-            k += 1;
-            if is_hull(&self.tv[t]) {
-                return None;
-            }
-            for (j, &vj) in self.tv[t].iter().enumerate() {
-                let u = self.tn[t][j] >> 2;
-                if vj != x && !star.contains(&u) {
-                    star.push(u);
-                }
-            }
+        let mut star = Vec::new();
+        self.star_of(x, &mut star);
+        if star.iter().any(|&t| is_hull(&self.tv[t as usize])) {
+            return None;
         }
         // The star's boundary: each star tet's face opposite x.
         let mut link: Vec<u32> = Vec::with_capacity(3 * star.len());
@@ -317,6 +310,30 @@ impl Delaunay3 {
         let first = self.replace(&star, &fill, None)?;
         self.vtet[x as usize] = NONE;
         Some(first)
+    }
+
+    /// Whether the finite tet `v` is positive at the current positions.
+    fn positive(&self, v: &[u32; 4]) -> bool {
+        let p = |k: usize| &self.pts[v[k] as usize];
+        orient(p(0), p(1), p(2), p(3)) > 0.0
+    }
+
+    /// The tets around vertex `x` (a depth-first walk from `vtet[x]` across
+    /// the faces that hold `x`), into `out`.
+    fn star_of(&self, x: u32, out: &mut Vec<u32>) {
+        out.clear();
+        out.push(self.vtet[x as usize]);
+        let mut k = 0;
+        while k < out.len() {
+            let t = out[k] as usize;
+            k += 1;
+            for (j, &vj) in self.tv[t].iter().enumerate() {
+                let u = self.tn[t][j] >> 2;
+                if vj != x && !out.contains(&u) {
+                    out.push(u);
+                }
+            }
+        }
     }
 
     /// Whether face `i` of live tet `t` is locally Delaunay: the apex across
