@@ -140,18 +140,23 @@ fn smooth(
         // In one order whatever the tets' storage order (which differs
         // between a new build and a moved one), so that the sums below, and
         // the positions, do not depend on how the tets were reached.
-        let mut tets: Vec<[u32; 4]> = dt
+        // (as one 128-bit key each: sorted as numbers, in the order of the
+        // sorted vertex quadruples, faster than comparing arrays)
+        let mut keys: Vec<u128> = dt
             .tets()
             .map(|mut t| {
                 t.sort_unstable();
-                t
+                t.iter().fold(0u128, |k, &v| (k << 32) | u128::from(v))
             })
             .collect();
-        tets.sort_unstable();
+        keys.sort_unstable();
+        let tets = keys
+            .iter()
+            .map(|&k| [96, 64, 32, 0].map(|s| (k >> s) as u32));
         tri = Some(dt);
         let mut acc = vec![nalgebra::Vector3::<f64>::zeros(); n];
         let mut wsum = vec![0.0f64; n];
-        for t in &tets {
+        for t in tets {
             let t = t.map(|k| active[k as usize]);
             let [a, b, c, e] = t.map(|k| pos[k as usize]);
             let Some(cc) = tet_circumcentre(&a, &b, &c, &e) else {
