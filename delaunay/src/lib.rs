@@ -11,9 +11,13 @@
 //! insertion order: it is the unique Delaunay triangulation of the perturbed
 //! points.
 //!
+//! Points of a finished triangulation can be moved ([`Delaunay3::moved`]):
+//! the tets are flipped to the Delaunay ones of the new positions (or built
+//! anew where flips cannot), the same tets as a new build.
+//!
 //! Why written here: the `delaunay` crate takes ~56 s for 7,500 points and
-//! `spade` is 2D only; the volume mesher needs ≥ 1 M tets/s and incremental
-//! Steiner-point insertion.
+//! `spade` is 2D only; the volume mesher needs ≥ 1 M tets/s, incremental
+//! Steiner-point insertion and moving points.
 //!
 //! # Invariants of a [`Tetrahedralization`]
 //! - `tets[t]` are indices into the input points; every tet is *positive*:
