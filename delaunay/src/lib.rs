@@ -442,6 +442,17 @@ impl Delaunay3 {
         self.last = 0;
     }
 
+    /// A tet slot for a new tet: a freed one, else a new one at the end
+    /// (its contents are the caller's to write).
+    fn new_slot(&mut self) -> u32 {
+        self.free.pop().unwrap_or_else(|| {
+            self.tv.push([DEAD; 4]);
+            self.tn.push([0; 4]);
+            self.mark.push(0);
+            (self.tv.len() - 1) as u32
+        })
+    }
+
     #[inline(always)]
     fn pt(&self, v: u32) -> &[f64; 3] {
         &self.pts[v as usize]
@@ -586,18 +597,14 @@ impl Delaunay3 {
             return Err(Fail::TooLarge);
         }
         self.newtets.clear();
-        for &(t, i) in &self.boundary {
+        for k in 0..self.boundary.len() {
+            let (t, i) = self.boundary[k];
             let mut v = self.tv[t as usize];
             v[i as usize] = pid;
             let id = if self.newtets.len() < self.cavity.len() {
                 self.cavity[self.newtets.len()]
-            } else if let Some(f) = self.free.pop() {
-                f
             } else {
-                self.tv.push([DEAD; 4]);
-                self.tn.push([0; 4]);
-                self.mark.push(0);
-                (self.tv.len() - 1) as u32
+                self.new_slot()
             };
             self.newtets.push((v, i, id));
         }

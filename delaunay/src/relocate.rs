@@ -163,6 +163,7 @@ impl Delaunay3 {
         let mut flips = 0;
         let mut stuck: Vec<(u32, u8)> = Vec::new();
         loop {
+            let before = flips;
             while let Some((t, i)) = queue.pop() {
                 if self.tv[t as usize][0] == DEAD || self.locally_delaunay(t, i as usize) {
                     continue;
@@ -176,25 +177,12 @@ impl Delaunay3 {
                     stuck.push((t, i));
                 }
             }
-            // Faces no flip could turn: retry them now that their
-            // neighbourhoods changed; give up when none turns.
-            let before = flips;
-            for (t, i) in std::mem::take(&mut stuck) {
-                if self.tv[t as usize][0] == DEAD || self.locally_delaunay(t, i as usize) {
-                    continue;
-                }
-                if self.flip(t, i as usize, &mut queue) {
-                    flips += 1;
-                    if flips > cap {
-                        return None;
-                    }
-                } else {
-                    stuck.push((t, i));
-                }
-            }
-            if queue.is_empty() && (stuck.is_empty() || flips == before) {
+            // Faces no flip could turn: retried while flips since their
+            // last try changed their neighbourhoods; given up when none did.
+            if stuck.is_empty() || flips == before {
                 break;
             }
+            queue.append(&mut stuck);
         }
         if !stuck.is_empty() {
             return None;
@@ -440,18 +428,7 @@ impl Delaunay3 {
             }
         }
         let ids: Vec<u32> = (0..tets.len())
-            .map(|k| {
-                if k < old.len() {
-                    old[k]
-                } else if let Some(f) = self.free.pop() {
-                    f
-                } else {
-                    self.tv.push([DEAD; 4]);
-                    self.tn.push([0; 4]);
-                    self.mark.push(0);
-                    (self.tv.len() - 1) as u32
-                }
-            })
+            .map(|k| old.get(k).copied().unwrap_or_else(|| self.new_slot()))
             .collect();
         for &o in &old[tets.len().min(old.len())..] {
             self.tv[o as usize] = [DEAD; 4];
