@@ -395,6 +395,63 @@ fn fcc_flag_chooses_the_volume_lattice() {
     assert!(means["bcc"] > means["fcc"], "{means:?}");
 }
 
+/// Where a uniform spacing's BCC start is given up, a bulky volume relaxes
+/// only the lattice's layer next to the boundary (`bcc_layer`) and must
+/// come out at least as good as the thesis's FCC path over the whole
+/// volume (`--fcc`), within the volume quality bounds; a volume that is
+/// mostly layer takes the FCC path. fixtures/step/cylinder.step (r 10,
+/// h 20): at 1.5 a third of its lattice is layer, at 2 half; BCC is given
+/// up at both.
+#[test]
+fn a_bulky_volume_relaxes_only_its_boundary_layer() {
+    let dir = tempfile::tempdir().unwrap();
+    let step =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/step/cylinder.step");
+    let mesh = |size: &str, flag: Option<&str>| {
+        let out = dir.path().join("c.msh");
+        let rep = dir.path().join("c.json");
+        let mut args = vec![
+            "mesh",
+            step.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            size,
+            "--dim",
+            "3",
+            "--report",
+            rep.to_str().unwrap(),
+        ];
+        args.extend(flag);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+        let vol = &v["engine"]["volumes"][0];
+        let t = &v["quality"]["tets"];
+        let (mean, min, dihedral) = (
+            t["q_mean"].as_f64().unwrap(),
+            t["q_min"].as_f64().unwrap(),
+            t["dihedral_min"].as_f64().unwrap(),
+        );
+        assert!(min >= 0.5 && dihedral >= 25.0, "{size} {flag:?}: {t}");
+        (
+            vol["lattice"].clone(),
+            vol["bcc_rejected"].is_number(),
+            mean,
+        )
+    };
+    let (lattice, rejected, layered) = mesh("1.5", None);
+    assert_eq!(lattice, "bcc_layer");
+    assert!(rejected, "the BCC start is given up first");
+    let (lattice, _, fcc) = mesh("1.5", Some("--fcc"));
+    assert_eq!(lattice, "fcc");
+    assert!(layered >= fcc, "bcc_layer {layered}, fcc {fcc}");
+    let (lattice, rejected, _) = mesh("2", None);
+    assert_eq!(lattice, "fcc");
+    assert!(rejected);
+}
+
 /// `--unit` converts a STEP file's coordinates (the fixtures are in
 /// millimetres): the same mesh comes out scaled, with `--size` read in the
 /// new unit, and the summary and report say which unit the numbers are in.

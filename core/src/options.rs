@@ -129,8 +129,8 @@ impl Options {
 /// Which lattice volumes start from (an engine option).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum VolumeLattice {
-    /// BCC (and no stage 2 or ODT) where the spacing is uniform, FCC
-    /// elsewhere.
+    /// BCC (and no stage 2 or ODT) where the spacing is uniform, the same
+    /// with its boundary layer relaxed where that is poor, FCC elsewhere.
     #[default]
     Auto,
     /// Always FCC followed by stage 2, as in the thesis.

@@ -26,9 +26,13 @@
 //!   ODT gave it nothing (d = 0.05: mean 0.927 with both, 0.926 without),
 //!   so only the layer next to the boundary needs the sliver pass and the
 //!   polish (measurements: docs/decisions.md). Where BCC meets a thin part's boundary unrelaxed it is
-//!   worse, so it is given up for FCC when its first tetrahedralization
+//!   worse, so it is given up when its first tetrahedralization
 //!   looks poor ([`BCC_MAX_BAD`], locked slivers, recovery removals) or
-//!   its result is ([`BCC_FLOOR_RR`]). The thesis's FCC path stays available
+//!   its result is ([`BCC_FLOOR_RR`]), for the same lattice with the
+//!   bubbles within [`BCC_LAYER`] spacings of the boundary relaxed by stage
+//!   2 and ODT smoothing and the others held ([`Lattice::BccLayer`]): the
+//!   thesis's method where the boundary needs it, at the cost of that layer
+//!   only. The thesis's FCC path stays available
 //!   ([`VolumeLattice::Fcc`], `--fcc`), and is always used for a varying
 //!   spacing (a BCC octree measured the same as FCC on case I, 0.904
 //!   against 0.903).
@@ -93,7 +97,7 @@ pub const BCC_CELL: f64 = 1.082_93;
 /// no Delaunay tetrahedron of BCC (it has no degenerate one).
 pub const BCC_JITTER: f64 = 1e-6;
 
-/// A BCC start is given up for FCC and stage 2 when more than this
+/// A BCC start is given up for [`Lattice::BccLayer`] when more than this
 /// fraction of its Delaunay tetrahedra are below the sliver target
 /// (`TARGET_Q`). Where the lattice meets the boundary's
 /// bubbles unrelaxed, thin parts get many poor tetrahedra, and the sliver
@@ -104,12 +108,12 @@ pub const BCC_JITTER: f64 = 1e-6;
 /// b3d_nurbs_torus 1.7 %, case K 0.9 %.
 pub const BCC_MAX_BAD: f64 = 0.02;
 
-/// A BCC start is also given up for FCC when, after the sliver pass and
+/// A BCC start is also given up for [`Lattice::BccLayer`] when, after the sliver pass and
 /// the polish, a tetrahedron is below this floor (`below_bcc_floor`):
 /// radius ratio [`BCC_FLOOR_RR`], dihedral angles within
 /// [`BCC_FLOOR_DIHEDRAL`] (the quality bounds asked of volume meshes are
 /// 0.45 and [25°, 140°]). The
-/// FCC path usually reaches the sliver target 0.55 (26.8°); BCC leaves a
+/// relaxed paths (FCC, [`Lattice::BccLayer`]) usually reach the sliver target 0.55 (26.8°); BCC leaves a
 /// few tetrahedra just below it next to the boundary of large volumes (case
 /// K: ten or so at 0.52–0.55, 25.4°–26.8°, depending on the face meshes)
 /// and that is kept, for 3–10× less time.
@@ -121,6 +125,28 @@ pub const BCC_MAX_BAD: f64 = 0.02;
 pub const BCC_FLOOR_RR: f64 = 0.5;
 /// See [`BCC_FLOOR_RR`]: the smallest and largest dihedral angle, degrees.
 pub const BCC_FLOOR_DIHEDRAL: (f64, f64) = (25.0, 140.0);
+
+/// How far from the boundary, in spacings, a [`Lattice::BccLayer`] start
+/// relaxes its bubbles: the force reaches 1.5 spacings, so the second
+/// lattice layer off the boundary bubbles still feels them. Measured on
+/// the fixtures at `mesh_size` (one thread) against FCC and stage 2 over
+/// the whole volume, on the 23 volumes whose BCC start is given up:
+/// fillet_small 4.7 → 2.6 s, mean radius ratio 0.914 → 0.932, block_holes
+/// 5.5 → 4.1 s (0.915 → 0.926), b3d_spring 24 → 21 s (0.914 → 0.928),
+/// smallest dihedral angle 26.8° on both; 1.5 spacings left loft's worst
+/// tetrahedron at 0.516 (25.3°). docs/decisions.md has the rest.
+pub const BCC_LAYER: f64 = 2.0;
+
+/// A [`Lattice::BccLayer`] start is made only where at most this share of
+/// the lattice's bubbles lie in the layer; thinner volumes take the FCC
+/// path. Where the layer is most of the volume the two cost the same, and
+/// the FCC path's tetrahedra were as good or better: at diag/20 on
+/// `../shared/realstep` (layer shares near 1) a layered start lowered the
+/// mean radius ratio on 12 of 27 solids (as_0044 0.875 → 0.867,
+/// face_recognition 0.832 → 0.815), fixtures/step/flange_revolved (0.69)
+/// ended at radius ratio 0.520 instead of 0.550 and b3d_flange (0.75) at a
+/// mean of 0.911 instead of 0.912.
+pub const BCC_LAYER_MAX_SHARE: f64 = 0.6;
 
 /// ODT iterations ([`tet::odt`]) of the first round's Steiner points
 /// before they are connected, when they are at least a quarter of the free
@@ -164,6 +190,12 @@ pub enum Lattice {
     /// Body-centred cubic: 2 bubbles per cube of side [`BCC_CELL`]·d,
     /// for a uniform spacing only.
     Bcc,
+    /// Body-centred cubic whose bubbles within [`BCC_LAYER`] spacings of
+    /// the boundary are relaxed by stage 2 and ODT smoothing, the others
+    /// held where the lattice put them until the sliver pass and the
+    /// polish (uniform spacing only, when [`Lattice::Bcc`] is given up).
+    #[serde(rename = "bcc_layer")]
+    BccLayer,
 }
 
 /// d(x) scaled by a constant factor.
@@ -284,7 +316,7 @@ pub(crate) fn lattice_seeds(
     if let Some(d) = spacing.constant_on(entity) {
         let (basis, a): (&[V3], f64) = match lattice {
             Lattice::Fcc => (&fcc, std::f64::consts::SQRT_2 * d),
-            Lattice::Bcc => {
+            Lattice::Bcc | Lattice::BccLayer => {
                 // `spacing` is packed (VOLUME_PACKING·d) for stage 2, which
                 // a BCC lattice skips: its cube is BCC_CELL·d of the
                 // requested d
@@ -385,7 +417,7 @@ pub struct VolumeReport {
     pub stage1_bubbles: usize,
     /// The stage-1 lattice used.
     pub lattice: Option<Lattice>,
-    /// When a BCC start was given up for FCC: the fraction of its
+    /// When a BCC start was given up (for [`Lattice::BccLayer`]): the fraction of its
     /// tetrahedra below the sliver target right after the connection (see
     /// [`BCC_MAX_BAD`]), or below [`BCC_FLOOR_RR`] at the end.
     pub bcc_rejected: Option<f64>,
@@ -591,6 +623,9 @@ enum Attempt {
     /// A BCC start was given up: this fraction of its tetrahedra made it
     /// so. Nothing was written into the mesh.
     GiveUp(f64),
+    /// A [`Lattice::BccLayer`] start was not made: more than
+    /// [`BCC_LAYER_MAX_SHARE`] of its bubbles are in the layer.
+    Thin,
 }
 
 /// Makes the boundary of volume `vi` Delaunay where it can, before
@@ -680,8 +715,9 @@ pub(super) fn mesh_volume(
                 let staged = timings.stage1_s + timings.stage2_s - staged;
                 timings.connect_s += (t_try.elapsed().as_secs_f64() - staged).max(0.0);
                 rejected = Some(frac);
-                lattice = Lattice::Fcc;
+                lattice = Lattice::BccLayer;
             }
+            Attempt::Thin => lattice = Lattice::Fcc,
         }
     }
 }
@@ -723,27 +759,17 @@ fn attempt(
     };
     let (mut sys, far) = match warm {
         Some(start) => {
-            let fixed = warm::Fixed {
-                pos: &boundary.fixed_pos,
-                d: &boundary.fixed_d,
-                ids: &boundary.fixed_ids,
-            };
-            let inside = |p: &P3| carrier.contains_point(p);
-            let fill = |pos: &[P3], d: &[f64]| {
-                lattice_seeds(
-                    &carrier,
-                    &scaled,
-                    boundary.lo,
-                    boundary.hi,
-                    pos,
-                    d,
-                    Lattice::Fcc,
-                )
-            };
-            let (sys, counts, far) = warm::stage1(fixed, &scaled, carrier, inside, fill, start)?;
-            rep.stage1_bubbles = counts[1] + counts[2];
-            rep.warm = Some(counts);
+            let (sys, far) = warm_bubbles(boundary, &scaled, carrier, start, &mut rep)?;
             (sys, Some(far))
+        }
+        None if lattice == Lattice::BccLayer => {
+            match layered_bubbles(boundary, &scaled, carrier, &mut rep)? {
+                Some((sys, far)) => (sys, Some(far)),
+                None => {
+                    timings.stage1_s += t0.elapsed().as_secs_f64();
+                    return Ok(Attempt::Thin);
+                }
+            }
         }
         None => (
             seed_bubbles(boundary, &scaled, carrier, lattice, &mut rep)?,
@@ -754,7 +780,7 @@ fn attempt(
     job.opts
         .stage1_done(job.entity, sys.n_fixed, &sys.pos, &sys.d);
     // a BCC lattice needs neither stage 2 nor ODT (module docs)
-    let relax = !job.opts.fast && lattice == Lattice::Fcc;
+    let relax = !job.opts.fast && lattice != Lattice::Bcc;
     if relax {
         let t2 = Instant::now();
         rep.relax = Some(relax_bubbles(job, &mut sys, warm.is_some())?);
@@ -765,6 +791,7 @@ fn attempt(
     }
 
     let t3 = Instant::now();
+    let layered = lattice == Lattice::BccLayer;
     let n_keep = sys.n_fixed;
     let mut tm = TetMesh {
         movable: (0..sys.pos.len()).map(|i| i >= n_keep).collect(),
@@ -777,7 +804,7 @@ fn attempt(
         // a warm start smooths the free nodes among the kept ones near
         // them only
         let params = tet::odt::OdtParams {
-            local: warm.is_some(),
+            local: warm.is_some() || layered,
             iterations: match warm {
                 Some(_) => warm::ODT_ITERATIONS,
                 None => tet::odt::OdtParams::default().iterations,
@@ -799,6 +826,9 @@ fn attempt(
             return Ok(Attempt::Done(Box::new(rep)));
         }
     }
+    // the lattice's bubbles held in stage 2 and ODT move in the sliver
+    // pass and the polish
+    let n_keep = if layered { boundary.n_fixed() } else { n_keep };
     let first_qs = match connect_first(job, boundary, lattice, n_keep, &mut tm, &mut rep, mesh)? {
         First::GiveUp(frac) => return Ok(Attempt::GiveUp(frac)),
         First::Connected(qs) => qs,
@@ -1023,6 +1053,119 @@ fn seed_bubbles<'a>(
     Ok(sys)
 }
 
+/// A stage-1 system with fixed bubbles beyond the boundary's (a warm
+/// start's kept ones, a [`Lattice::BccLayer`] start's held ones), and those
+/// of them set aside during stage 2.
+type Held<'a> = (
+    crate::bubbles::system::System<'a, InVolume<'a>>,
+    crate::face::warm::Far,
+);
+
+/// Stage 1 of a warm start (§4.8, [`warm`]): the old bubbles, the FCC
+/// seeds where they left room.
+fn warm_bubbles<'a>(
+    boundary: &'a Boundary,
+    spacing: &'a Scaled<'a>,
+    carrier: InVolume<'a>,
+    start: &crate::remesh::warm::EntityStart,
+    rep: &mut VolumeReport,
+) -> Result<Held<'a>, MeshError> {
+    let fixed = warm::Fixed {
+        pos: &boundary.fixed_pos,
+        d: &boundary.fixed_d,
+        ids: &boundary.fixed_ids,
+    };
+    let inside = |p: &P3| carrier.contains_point(p);
+    let fill = |pos: &[P3], d: &[f64]| {
+        lattice_seeds(
+            &carrier,
+            spacing,
+            boundary.lo,
+            boundary.hi,
+            pos,
+            d,
+            Lattice::Fcc,
+        )
+    };
+    let (sys, counts, far) = warm::stage1(fixed, spacing, carrier, inside, fill, start)?;
+    rep.stage1_bubbles = counts[1] + counts[2];
+    rep.warm = Some(counts);
+    Ok((sys, far))
+}
+
+/// Stage 1 of a [`Lattice::BccLayer`] start (`None` where more than
+/// [`BCC_LAYER_MAX_SHARE`] of the seeds are in the layer): the BCC seeds, those within
+/// [`BCC_LAYER`] of their (packed) spacings of a boundary bubble free, the
+/// others fixed as kept bubbles ([`KEPT_ID`](crate::bubbles::system::KEPT_ID):
+/// population control leaves room next to them alone), those far from
+/// every free one set aside during stage 2 as a warm start's are
+/// ([`crate::face::warm::assemble`]; put back with
+/// [`crate::face::warm::restore`]).
+fn layered_bubbles<'a>(
+    boundary: &Boundary,
+    spacing: &'a Scaled<'a>,
+    carrier: InVolume<'a>,
+    rep: &mut VolumeReport,
+) -> Result<Option<Held<'a>>, MeshError> {
+    let seeds = lattice_seeds(
+        &carrier,
+        spacing,
+        boundary.lo,
+        boundary.hi,
+        &boundary.fixed_pos,
+        &boundary.fixed_d,
+        Lattice::Bcc,
+    )?;
+    rep.stage1_bubbles = seeds.len();
+    let dmax = boundary
+        .fixed_d
+        .iter()
+        .chain(seeds.iter().map(|s| &s.1))
+        .cloned()
+        .fold(f64::MIN_POSITIVE, f64::max);
+    let w = BCC_LAYER;
+    let grid = crate::bubbles::grid::Grid::new(&boundary.fixed_pos, w * dmax);
+    let mut fixed_pos = boundary.fixed_pos.clone();
+    let mut fixed_d = boundary.fixed_d.clone();
+    let mut fixed_ids = boundary.fixed_ids.clone();
+    let mut free = Vec::new();
+    for (p, d) in seeds {
+        let mut near = false;
+        grid.query(&p, w * dmax, |j| {
+            near |= (boundary.fixed_pos[j as usize] - p).norm() <= w * d;
+        });
+        if near {
+            free.push(crate::face::placement::Seed {
+                pos: p,
+                params: [0.0; 2],
+                d,
+            });
+        } else {
+            fixed_pos.push(p);
+            fixed_d.push(d);
+            fixed_ids.push(crate::bubbles::system::KEPT_ID);
+        }
+    }
+    let held = fixed_pos.len() - boundary.n_fixed();
+    if free.len() as f64 > BCC_LAYER_MAX_SHARE * (free.len() + held) as f64 {
+        return Ok(None);
+    }
+    let fixed = crate::face::warm::Fixed {
+        uv: vec![[0.0; 2]; fixed_pos.len()],
+        pos: fixed_pos,
+        d: fixed_d,
+        ids: fixed_ids,
+    };
+    Ok(Some(crate::face::warm::assemble(
+        carrier,
+        spacing,
+        3,
+        fixed,
+        boundary.n_fixed(),
+        free,
+    )))
+}
+
 /// Stage 2: the bubbles' dynamics, at most [`VOLUME_MAX_STEPS`] steps.
 fn relax_bubbles(
     job: &VolumeJob<'_>,
@@ -1078,7 +1221,7 @@ fn connect_first(
         .map_err(|e| connect_error(e, &boundary.global, mesh))?;
     rep.delaunay_s = t.elapsed().as_secs_f64();
     let mut first_qs = None;
-    if lattice == Lattice::Bcc && !job.opts.fast {
+    if lattice != Lattice::Fcc && !job.opts.fast {
         let qs: Vec<f64> = conn
             .tets
             .iter()
@@ -1096,7 +1239,7 @@ fn connect_first(
             .iter()
             .enumerate()
             .any(|(ti, t)| t.iter().all(|&k| fixed(k)) && poor(ti));
-        if frac > BCC_MAX_BAD || locked || conn.removed > 0 {
+        if lattice == Lattice::Bcc && (frac > BCC_MAX_BAD || locked || conn.removed > 0) {
             return Ok(First::GiveUp(frac));
         }
         first_qs = Some(qs);
@@ -1242,7 +1385,7 @@ fn polish(lattice: Lattice, tm: &mut TetMesh, rep: &mut VolumeReport) -> Option<
         // no flip round after BCC (see PolishParams::flip_rounds)
         flip_rounds: match lattice {
             Lattice::Bcc => 0,
-            Lattice::Fcc => tet::polish::PolishParams::default().flip_rounds,
+            Lattice::Fcc | Lattice::BccLayer => tet::polish::PolishParams::default().flip_rounds,
         },
         ..Default::default()
     };
