@@ -108,15 +108,15 @@ pub const BCC_JITTER: f64 = 1e-6;
 /// b3d_nurbs_torus 1.7 %, case K 0.9 %.
 pub const BCC_MAX_BAD: f64 = 0.02;
 
-/// A BCC start is also given up for [`Lattice::BccLayer`] when, after the sliver pass and
-/// the polish, a tetrahedron is below this floor (`below_bcc_floor`):
-/// radius ratio [`BCC_FLOOR_RR`], dihedral angles within
-/// [`BCC_FLOOR_DIHEDRAL`] (the quality bounds asked of volume meshes are
-/// 0.45 and [25°, 140°]). The
-/// relaxed paths (FCC, [`Lattice::BccLayer`]) usually reach the sliver target 0.55 (26.8°); BCC leaves a
-/// few tetrahedra just below it next to the boundary of large volumes (case
-/// K: ten or so at 0.52–0.55, 25.4°–26.8°, depending on the face meshes)
-/// and that is kept, for 3–10× less time.
+/// A BCC start is also given up for [`Lattice::BccLayer`] when, after the
+/// sliver pass and the polish, a tetrahedron is below this floor
+/// (`below_bcc_floor`): radius ratio [`BCC_FLOOR_RR`], dihedral angles
+/// within [`BCC_FLOOR_DIHEDRAL`] (the quality bounds asked of volume meshes
+/// are 0.45 and [25°, 140°]). The relaxed paths (FCC,
+/// [`Lattice::BccLayer`]) usually reach the sliver target 0.55 (26.8°); BCC
+/// leaves a few tetrahedra just below it next to the boundary of large
+/// volumes (case K: ten or so at 0.52–0.55, 25.4°–26.8°, depending on the
+/// face meshes) and that is kept, for 3–10× less time.
 ///
 /// Why the measures themselves and not a floor on the
 /// `tet::star::objective`: the objective maps 25° to 0.514 but 140°
@@ -130,7 +130,8 @@ pub const BCC_FLOOR_DIHEDRAL: (f64, f64) = (25.0, 140.0);
 /// relaxes its bubbles: the force reaches 1.5 spacings, so the second
 /// lattice layer off the boundary bubbles still feels them. Measured on
 /// the fixtures at `mesh_size` (one thread) against FCC and stage 2 over
-/// the whole volume, on the 23 volumes whose BCC start is given up:
+/// the whole volume, where the BCC start is given up and the layer is at
+/// most [`BCC_LAYER_MAX_SHARE`] of the lattice:
 /// fillet_small 4.7 → 2.6 s, mean radius ratio 0.914 → 0.932, block_holes
 /// 5.5 → 4.1 s (0.915 → 0.926), b3d_spring 24 → 21 s (0.914 → 0.928),
 /// smallest dihedral angle 26.8° on both; 1.5 spacings left loft's worst
@@ -417,7 +418,8 @@ pub struct VolumeReport {
     pub stage1_bubbles: usize,
     /// The stage-1 lattice used.
     pub lattice: Option<Lattice>,
-    /// When a BCC start was given up (for [`Lattice::BccLayer`]): the fraction of its
+    /// When a BCC start was given up (for [`Lattice::BccLayer`], or FCC
+    /// where the layer is most of the volume): the fraction of its
     /// tetrahedra below the sliver target right after the connection (see
     /// [`BCC_MAX_BAD`]), or below [`BCC_FLOOR_RR`] at the end.
     pub bcc_rejected: Option<f64>,

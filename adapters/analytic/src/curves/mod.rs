@@ -20,7 +20,7 @@ pub use arc::CircleArc;
 pub use ellipse::EllipseArc;
 pub use hyperbola::HyperbolaArc;
 pub use line::Line;
-pub(crate) use nurbs::{basis_derivs, clamped_uniform_knots, find_span};
+pub(crate) use nurbs::{basis_derivs, clamped_uniform_knots, find_span, MAXP};
 pub use nurbs::{Nurbs, MAX_NURBS_DEGREE};
 pub use on_surface::CurveOnSurface;
 

@@ -9,6 +9,7 @@
 
 use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3, V3};
 
+use super::nurbs_power::PowerPatches;
 use super::{
     area_singular, area_singular_of, newton_inverse, typical_partials, wrap, ParamBox, SurfaceError,
 };
@@ -61,6 +62,9 @@ pub struct NurbsSurface {
     scale: [f64; 2],
     /// Points where a boundary isocurve collapses (see the type's doc).
     poles: Vec<P3>,
+    /// The knot-span patches in power form for [`Surface::tangents`]
+    /// (`None` for a net above their budget).
+    power: Option<PowerPatches>,
 }
 
 /// Relative tolerance (× the net's size) within which a boundary isocurve
@@ -124,7 +128,7 @@ impl NurbsSurface {
                 w
             }
         };
-        let hw = points
+        let hw: Vec<[f64; 4]> = points
             .iter()
             .zip(&weights)
             .map(|(p, &w)| [p.x * w, p.y * w, p.z * w, w])
@@ -134,7 +138,9 @@ impl NurbsSurface {
             lo = lo.inf(&p.coords);
             hi = hi.sup(&p.coords);
         }
+        let power = PowerPatches::new([degree_u, degree_v], [nu, nv], &knots_u, &knots_v, &hw);
         let mut s = NurbsSurface {
+            power,
             degree: [degree_u, degree_v],
             n: [nu, nv],
             rational: weights.iter().any(|&w| w != 1.0),
@@ -366,6 +372,26 @@ impl NurbsSurface {
         }
     }
 
+    /// S, S_u and S_v from the power-form patches (no wrapping), where
+    /// the surface has them.
+    fn power_tangents(&self, u: f64, v: f64) -> Option<(P3, V3, V3)> {
+        let pp = self.power.as_ref()?;
+        let ([p, q], [nu, nv]) = (self.degree, self.n);
+        let ku = find_span(&self.knots_u, p, nu, u);
+        let kv = find_span(&self.knots_v, q, nv, v);
+        let (o, [a, a_u, a_v]) = pp.eval((ku, self.knots_u[ku], u), (kv, self.knots_v[kv], v))?;
+        let o = P3::new(o[0], o[1], o[2]);
+        let vec = |h: &[f64; 4]| V3::new(h[0], h[1], h[2]);
+        if !self.rational {
+            return Some((o + vec(&a), vec(&a_u), vec(&a_v)));
+        }
+        // the quotient rule, as in eval_upto, on S − O
+        let s = vec(&a) / a[3];
+        let su = (vec(&a_u) - s * a_u[3]) / a[3];
+        let sv = (vec(&a_v) - s * a_v[3]) / a[3];
+        Some((o + s, su, sv))
+    }
+
     fn wrap_params(&self, u: f64, v: f64) -> (f64, f64) {
         let (du, dv) = self.domain();
         (
@@ -401,8 +427,13 @@ impl Surface for NurbsSurface {
         let (u, v) = self.wrap_params(u, v);
         self.eval(u, v)
     }
+    /// From the power-form patches where the surface has them
+    /// ([`super::nurbs_power`]; equal to A2.3's to rounding), else A2.3.
     fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
         let (u, v) = self.wrap_params(u, v);
+        if let Some(d) = self.power_tangents(u, v) {
+            return d;
+        }
         let d = self.eval_upto(u, v, 1);
         (d.p, d.su, d.sv)
     }
@@ -519,5 +550,123 @@ mod tests {
         let open =
             NurbsSurface::new(1, 2, net, None, ku, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
         assert!(open.singular_points().is_empty());
+    }
+
+    /// The power-form patches (`nurbs_power`) give A2.3's point and first
+    /// partials to rounding on rational nets of degrees 1 to 11, with repeated interior knots (empty spans), uneven spans far
+    /// from the origin, and at span ends; where the net is over the budget
+    /// the surface has no patches and A2.3 answers.
+    #[test]
+    fn power_form_tangents_equal_the_book_algorithm() {
+        // deterministic numbers in [−0.5, 0.5) (xorshift64)
+        let mut state = 0x51ed_2701_u64;
+        let mut unit = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let cases: [(usize, usize, Vec<f64>, Vec<f64>); 4] = [
+            (
+                1,
+                1,
+                vec![0.0, 0.0, 1.0, 2.0, 2.0],
+                vec![0.0, 0.0, 3.0, 3.0],
+            ),
+            (
+                3,
+                2,
+                vec![0.0, 0.0, 0.0, 0.0, 0.3, 0.3, 0.45, 1.0, 1.0, 1.0, 1.0],
+                vec![-2.0, -2.0, -2.0, 0.5, 4.0, 4.0, 4.0],
+            ),
+            // pipe_sweep.step's surface: rational, degrees 6 × 11, interior
+            // v knots of multiplicity 9
+            (
+                6,
+                11,
+                {
+                    let tau = std::f64::consts::TAU;
+                    [
+                        vec![-tau; 1],
+                        vec![0.0; 6],
+                        vec![tau; 6],
+                        vec![2.0 * tau; 1],
+                    ]
+                    .concat()
+                },
+                [
+                    vec![0.0; 12],
+                    vec![22.36; 9],
+                    vec![30.23; 9],
+                    vec![45.35; 9],
+                    vec![75.58; 12],
+                ]
+                .concat(),
+            ),
+            (5, 4, (0..14).map(|k| 1e3 + k as f64).collect(), {
+                let mut v = vec![0.0; 5];
+                v.extend([0.1, 0.2, 0.2, 0.7]);
+                v.extend(vec![1.0; 5]);
+                v
+            }),
+        ];
+        for (p, q, ku, kv) in cases {
+            let (nu, nv) = (ku.len() - p - 1, kv.len() - q - 1);
+            let net: Vec<Vec<P3>> = (0..nu)
+                .map(|i| {
+                    (0..nv)
+                        .map(|j| {
+                            P3::new(
+                                5e3 + i as f64 + unit(),
+                                -7e3 + j as f64 + unit(),
+                                3.0 * unit(),
+                            )
+                        })
+                        .collect()
+                })
+                .collect();
+            let w: Vec<Vec<f64>> = (0..nu)
+                .map(|_| (0..nv).map(|_| 1.0 + 0.9 * unit()).collect())
+                .collect();
+            let s = NurbsSurface::new(p, q, net, Some(w), ku.clone(), kv.clone()).unwrap();
+            assert!(s.power.is_some(), "degrees {p} × {q}");
+            let (du, dv) = s.domain();
+            // every span end, and random points
+            let mut uvs: Vec<[f64; 2]> = Vec::new();
+            for &u in ku.iter().filter(|&&u| u >= du[0] && u <= du[1]) {
+                for &v in kv.iter().filter(|&&v| v >= dv[0] && v <= dv[1]) {
+                    uvs.push([u, v]);
+                }
+            }
+            for _ in 0..200 {
+                uvs.push([
+                    du[0] + (du[1] - du[0]) * (unit() + 0.5),
+                    dv[0] + (dv[1] - dv[0]) * (unit() + 0.5),
+                ]);
+            }
+            for [u, v] in uvs {
+                let (pt, su, sv) = s.power_tangents(u, v).expect("a non-empty span");
+                let d = s.eval_upto(u, v, 1);
+                // points to 1e-9 of the net's size, partials to 1e-8
+                // relative (degree 11 loses about 1e-10 and 3e-9 to the
+                // monomial form's cancellation; degree 5 and less 1e-12)
+                assert!((pt - d.p).norm() <= 1e-9 * s.size(), "{p}×{q} at {u},{v}");
+                let tol = |x: &V3| 1e-8 * x.norm().max(1e-300);
+                assert!((su - d.su).norm() <= tol(&d.su), "{p}×{q} S_u at {u},{v}");
+                assert!((sv - d.sv).norm() <= tol(&d.sv), "{p}×{q} S_v at {u},{v}");
+                if p <= 5 {
+                    assert!((pt - d.p).norm() <= 1e-15 * d.p.coords.norm() + 1e-12 * s.size());
+                    assert!((su - d.su).norm() <= 1e-10 * d.su.norm());
+                }
+                assert_eq!(s.tangents(u, v).0, pt);
+            }
+        }
+        // over the budget: a bicubic net of 600 × 600 points
+        let k = clamped_uniform_knots(3, 600);
+        let net = vec![vec![P3::origin(); 600]; 600];
+        let big = NurbsSurface::new(3, 3, net, None, k.clone(), k).unwrap();
+        assert!(big.power.is_none());
+        let d = big.eval_upto(0.3, 0.6, 1);
+        assert_eq!(big.tangents(0.3, 0.6), (d.p, d.su, d.sv));
     }
 }
