@@ -35,6 +35,14 @@ pub trait Curve: Send + Sync + std::fmt::Debug {
     fn derivs(&self, t: f64) -> (P3, V3, V3) {
         (self.point(t), self.d1(t), self.d2(t))
     }
+    /// (C(t), C'(t)) for stage 2's steps on surfaces swept from this curve:
+    /// [`Curve::derivs`]'s first two by default; an adapter with a faster
+    /// form of the first derivative (NURBS: power-form spans) answers it
+    /// directly, equal to [`Curve::point`] and [`Curve::d1`] to rounding.
+    fn tangent(&self, t: f64) -> (P3, V3) {
+        let (p, d1, _) = self.derivs(t);
+        (p, d1)
+    }
     /// Whether C(t0) == C(t1) (a circle, a closed spline).
     fn is_closed(&self) -> bool {
         let (a, b) = self.interval();

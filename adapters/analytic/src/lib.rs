@@ -21,6 +21,7 @@
 
 pub mod curves;
 pub mod domain;
+mod power_form;
 pub mod surfaces;
 
 pub use curves::{

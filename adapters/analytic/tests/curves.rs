@@ -54,6 +54,19 @@ fn check_derivatives(c: &dyn Curve, avoid: &[f64]) {
             "{c:?}: d2 vs second difference at t = {t}: error {e2b}"
         );
         assert!(c.point(t).iter().all(|x| x.is_finite()));
+        // the first-order answer stage 2 uses equals point and d1 to
+        // rounding (NURBS: power-form spans)
+        let (pt, d1) = c.tangent(t);
+        let e = (pt - c.point(t)).norm();
+        assert!(
+            e <= 1e-12 * (1.0 + c.point(t).coords.norm()),
+            "{c:?}: tangent's point at {t}: {e}"
+        );
+        let e = (d1 - c.d1(t)).norm();
+        assert!(
+            e <= 1e-10 * c.d1(t).norm().max(scale),
+            "{c:?}: tangent's d1 at {t}: {e}"
+        );
     }
 }
 

@@ -86,6 +86,22 @@ fn check_derivs(s: &dyn Surface, pts: &[[f64; 2]]) {
     for &[u, v] in pts {
         let d = s.derivs(u, v);
         assert!((d.p - s.point(u, v)).norm() <= 1e-14 * (1.0 + d.p.coords.norm()));
+        // the first-order answer stage 2 uses equals derivs' to rounding
+        // (NURBS: power-form patches and spans)
+        let (tp, tu, tv) = s.tangents(u, v);
+        assert!(
+            (tp - d.p).norm() <= 1e-12 * (1.0 + d.p.coords.norm()),
+            "tangents' point at {u},{v}"
+        );
+        let first = d.su.norm() + d.sv.norm();
+        assert!(
+            (tu - d.su).norm() <= 1e-10 * first,
+            "tangents' S_u at {u},{v}"
+        );
+        assert!(
+            (tv - d.sv).norm() <= 1e-10 * first,
+            "tangents' S_v at {u},{v}"
+        );
         let (a, b) = (s.derivs(u + hu, v), s.derivs(u - hu, v));
         let (c, e) = (s.derivs(u, v + hv), s.derivs(u, v - hv));
         let first = d.su.norm() / (du[1] - du[0]) + d.sv.norm() / (dv[1] - dv[0]);

@@ -54,6 +54,12 @@ impl Curve for WrappedCurve {
     fn d2(&self, t: f64) -> V3 {
         self.inner.d2(self.wrap(t))
     }
+    fn derivs(&self, t: f64) -> (P3, V3, V3) {
+        self.inner.derivs(self.wrap(t))
+    }
+    fn tangent(&self, t: f64) -> (P3, V3) {
+        self.inner.tangent(self.wrap(t))
+    }
 }
 
 /// The parameter in `[a, b]` of the point of `c` nearest to `p`: the best

@@ -8,6 +8,7 @@
 //! available crates either lack rational second derivatives or bring a
 //! large geometry kernel with its own point types.
 
+use crate::power_form::PowerSegments;
 use bubblemesh_core::geom::{Curve, P3, V3};
 
 use super::{finite_point, GeometryError};
@@ -37,6 +38,9 @@ pub struct Nurbs {
     weights: Vec<f64>,
     knots: Vec<f64>,
     rational: bool,
+    /// The knot spans in power form for [`Curve::tangent`] (`None` above
+    /// their budget).
+    power: Option<PowerSegments>,
 }
 
 impl Nurbs {
@@ -86,12 +90,19 @@ impl Nurbs {
         };
         check_knots(&knots, degree, n)?;
         let rational = weights.iter().any(|&w| w != 1.0);
+        let hw: Vec<[f64; 4]> = points
+            .iter()
+            .zip(&weights)
+            .map(|(p, &w)| [p.x * w, p.y * w, p.z * w, w])
+            .collect();
+        let power = PowerSegments::new(degree, &knots, &hw);
         Ok(Nurbs {
             degree,
             points,
             weights,
             knots,
             rational,
+            power,
         })
     }
 
@@ -234,6 +245,31 @@ impl Curve for Nurbs {
     fn derivs(&self, t: f64) -> (P3, V3, V3) {
         let [c0, c1, c2] = self.eval(t);
         (P3::from(c0), c1, c2)
+    }
+    /// From the power-form segments ([`crate::power_form`]; equal to
+    /// A2.3's to rounding), else A2.3.
+    fn tangent(&self, t: f64) -> (P3, V3) {
+        if let Some(d) = self.power_tangent(t) {
+            return d;
+        }
+        let [c0, c1, _] = self.eval(t);
+        (P3::from(c0), c1)
+    }
+}
+
+impl Nurbs {
+    /// C and C' from the power-form segments, where the curve has them.
+    fn power_tangent(&self, t: f64) -> Option<(P3, V3)> {
+        let pw = self.power.as_ref()?;
+        let k = self.find_span(t);
+        let (o, [a, a1]) = pw.eval(k, self.knots[k], t)?;
+        let o = P3::new(o[0], o[1], o[2]);
+        let vec = |h: &[f64; 4]| V3::new(h[0], h[1], h[2]);
+        if !self.rational {
+            return Some((o + vec(&a), vec(&a1)));
+        }
+        let c = vec(&a) / a[3];
+        Some((o + c, (vec(&a1) - c * a1[3]) / a[3]))
     }
 }
 
@@ -399,5 +435,51 @@ mod tests {
         assert_eq!(c.find_span(-1.0), 2);
         assert_eq!(c.find_span(f64::NAN), 2);
         assert_eq!(c.span_count(), 2);
+    }
+
+    /// The power-form segments (`power_form`) give A2.3's point and first
+    /// derivative to rounding: rational curves of degrees 1 to 11 with
+    /// repeated interior knots (empty spans) far from the origin, at every
+    /// knot and at random parameters.
+    #[test]
+    fn power_form_tangent_equals_the_book_algorithm() {
+        let mut state = 0x7a3e_11c5_u64;
+        let mut unit = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for p in [1usize, 2, 3, 5, 7, 11] {
+            let mut knots = vec![-3.0; p + 1];
+            for (k, m) in [(1.0, 1), (1.5, p.min(3)), (4.0, p)] {
+                knots.extend(std::iter::repeat_n(k, m));
+            }
+            knots.extend(vec![9.0; p + 1]);
+            let n = knots.len() - p - 1;
+            let pts: Vec<P3> = (0..n)
+                .map(|i| P3::new(4e3 + i as f64 + unit(), -2e3 + unit(), unit()))
+                .collect();
+            let w: Vec<f64> = (0..n).map(|_| 1.0 + 0.9 * unit()).collect();
+            let c = Nurbs::new(p, pts, Some(w), knots.clone()).unwrap();
+            assert!(c.power.is_some());
+            let (a, b) = c.interval();
+            let ts: Vec<f64> = knots
+                .iter()
+                .copied()
+                .filter(|&t| t >= a && t <= b)
+                .chain((0..100).map(|_| a + (b - a) * (unit() + 0.5)))
+                .collect();
+            for t in ts {
+                let (pt, d1) = c.power_tangent(t).expect("a non-empty span");
+                let [c0, c1, _] = c.eval(t);
+                assert!((pt.coords - c0).norm() <= 1e-9 * 20.0, "degree {p} at {t}");
+                assert!((d1 - c1).norm() <= 1e-8 * c1.norm(), "degree {p} C' at {t}");
+                if p <= 5 {
+                    assert!((pt.coords - c0).norm() <= 1e-15 * c0.norm() + 1e-11);
+                    assert!((d1 - c1).norm() <= 1e-10 * c1.norm());
+                }
+            }
+        }
     }
 }

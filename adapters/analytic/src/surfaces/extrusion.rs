@@ -147,7 +147,7 @@ impl Surface for Extrusion {
         }
     }
     fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
-        let (c, c1, _) = self.profile.derivs(self.param(u));
+        let (c, c1) = self.profile.tangent(self.param(u));
         (c + self.direction * v, c1, self.direction)
     }
     /// Newton on the closest-point problem (module documentation). Without

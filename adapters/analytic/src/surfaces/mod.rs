@@ -42,7 +42,6 @@ mod cone;
 mod cylinder;
 mod extrusion;
 mod nurbs;
-mod nurbs_power;
 mod revolution;
 mod sphere;
 mod torus;

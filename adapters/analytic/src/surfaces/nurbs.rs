@@ -9,11 +9,11 @@
 
 use bubblemesh_core::geom::{Surface, SurfaceDerivs, P3, V3};
 
-use super::nurbs_power::PowerPatches;
 use super::{
     area_singular, area_singular_of, newton_inverse, typical_partials, wrap, ParamBox, SurfaceError,
 };
 use crate::curves::{basis_derivs, clamped_uniform_knots, find_span, GeometryError, Nurbs};
+use crate::power_form::PowerPatches;
 
 /// A NURBS surface of degrees (p, q) with an nu × nv control net P_ij,
 /// weights w_ij > 0 and knot vectors U = (u_0 … u_{nu+p}),
@@ -428,7 +428,7 @@ impl Surface for NurbsSurface {
         self.eval(u, v)
     }
     /// From the power-form patches where the surface has them
-    /// ([`super::nurbs_power`]; equal to A2.3's to rounding), else A2.3.
+    /// ([`crate::power_form`]; equal to A2.3's to rounding), else A2.3.
     fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
         let (u, v) = self.wrap_params(u, v);
         if let Some(d) = self.power_tangents(u, v) {
@@ -552,7 +552,7 @@ mod tests {
         assert!(open.singular_points().is_empty());
     }
 
-    /// The power-form patches (`nurbs_power`) give A2.3's point and first
+    /// The power-form patches (`power_form`) give A2.3's point and first
     /// partials to rounding on rational nets of degrees 1 to 11, with repeated interior knots (empty spans), uneven spans far
     /// from the origin, and at span ends; where the net is over the budget
     /// the surface has no patches and A2.3 answers.

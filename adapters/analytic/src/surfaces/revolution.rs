@@ -141,6 +141,13 @@ impl Surface for Revolution {
         let q = self.profile.point(self.param(v)) - self.origin;
         self.origin + self.rot(q, s, c)[0]
     }
+    /// From the profile's [`Curve::tangent`] (no second derivatives).
+    fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
+        let (c0, c1) = self.profile.tangent(self.param(v));
+        let (s, c) = u.sin_cos();
+        let q = self.rot(c0 - self.origin, s, c);
+        (self.origin + q[0], q[1], self.rot(c1, s, c)[0])
+    }
     fn derivs(&self, u: f64, v: f64) -> SurfaceDerivs {
         let (c0, c1, c2) = self.profile.derivs(self.param(v));
         let (s, c) = u.sin_cos();

@@ -216,6 +216,22 @@ impl Curve for Moved {
     fn d2(&self, t: f64) -> V3 {
         self.xf.vector(&(self.inner.d2(t) * self.scale))
     }
+    // the inner curve's own (one NURBS evaluation instead of three)
+    fn derivs(&self, t: f64) -> (P3, V3, V3) {
+        let (p, d1, d2) = self.inner.derivs(t);
+        (
+            self.xf.point(&P3::from(p.coords * self.scale)),
+            self.xf.vector(&(d1 * self.scale)),
+            self.xf.vector(&(d2 * self.scale)),
+        )
+    }
+    fn tangent(&self, t: f64) -> (P3, V3) {
+        let (p, d1) = self.inner.tangent(t);
+        (
+            self.xf.point(&P3::from(p.coords * self.scale)),
+            self.xf.vector(&(d1 * self.scale)),
+        )
+    }
 }
 
 /// `inner` over another interval (its point map unchanged): an unbounded
@@ -239,6 +255,12 @@ impl Curve for Ranged {
     }
     fn d2(&self, t: f64) -> V3 {
         self.inner.d2(t)
+    }
+    fn derivs(&self, t: f64) -> (P3, V3, V3) {
+        self.inner.derivs(t)
+    }
+    fn tangent(&self, t: f64) -> (P3, V3) {
+        self.inner.tangent(t)
     }
 }
 

@@ -1,5 +1,7 @@
-//! A NURBS surface's knot-span patches in power (monomial) form, for the
-//! point and first partials that stage 2 asks once per bubble and step.
+//! NURBS knot spans in power (monomial) form, for the point and first
+//! derivatives that stage 2 asks once per bubble and step: a surface's
+//! patches ([`PowerPatches`]) and a curve's segments ([`PowerSegments`],
+//! for the profiles of extrusions and surfaces of revolution).
 //!
 //! On one knot span [u_k, u_k+1) the p + 1 basis functions that do not
 //! vanish are polynomials of degree p in the local parameter
@@ -25,20 +27,21 @@
 //! coefficients grow like C(n, n/2)·2^(n/2) with alternating signs: for
 //! degree 5 and less the point and partials equal A2.3's to about 1e-12
 //! relative; for degree 11 (pipe_sweep's) points to about 1e-10 of the
-//! net's size and partials to about 3e-9 relative (tests in `nurbs.rs`),
+//! net's size and partials to about 3e-9 relative (tests in
+//! `surfaces/nurbs.rs` and `curves/nurbs.rs`),
 //! far below anything meshing resolves. Consecutive spans meet to that
 //! precision, not bit for bit. Second partials (curvature) stay with A2.3.
 
 use crate::curves::MAXP;
 
-/// Coefficient budget (f64 values) up to which a surface keeps its power
-/// form; larger nets evaluate with A2.3 only. 2²⁰ values are 8 MB: a
+/// Coefficient budget (f64 values) up to which a surface or curve keeps
+/// its power form; larger nets evaluate with A2.3 only. 2²⁰ values are 8 MB: a
 /// bicubic net of about 250 × 250 control points.
-pub(super) const MAX_COEFFICIENTS: usize = 1 << 20;
+pub(crate) const MAX_COEFFICIENTS: usize = 1 << 20;
 
 /// The power-form patches of a NURBS surface (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
-pub(super) struct PowerPatches {
+pub(crate) struct PowerPatches {
     degree: [usize; 2],
     /// Per span index k of a direction (p ≤ k < n), its slot among the
     /// non-empty spans, `usize::MAX` for an empty one.
@@ -105,7 +108,7 @@ impl PowerPatches {
     /// vectors `knots_u`, `knots_v` and homogeneous net `hw` (row-major,
     /// i·nv + j), or `None` above [`MAX_COEFFICIENTS`].
     #[allow(clippy::needless_range_loop)] // i indexes the net's rows and the u polynomials
-    pub(super) fn new(
+    pub(crate) fn new(
         degree: [usize; 2],
         n: [usize; 2],
         knots_u: &[f64],
@@ -191,7 +194,7 @@ impl PowerPatches {
     /// with its partials A_u, A_v at (u, v) on spans (`ku`, `kv`) whose left
     /// knots are `u0`, `v0`; `None` where a span is empty (the caller then
     /// uses A2.3).
-    pub(super) fn eval(
+    pub(crate) fn eval(
         &self,
         (ku, u0, u): (usize, f64, f64),
         (kv, v0, v): (usize, f64, f64),
@@ -229,5 +232,93 @@ impl PowerPatches {
             a_t[m] *= hv;
         }
         Some((self.origin[patch], [a, a_s, a_t]))
+    }
+}
+
+/// The power-form segments of a NURBS curve (see the module docs): per
+/// non-empty knot span, p + 1 coefficients [x, y, z, w] of s^a of the
+/// homogeneous curve relative to the segment's first control point.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PowerSegments {
+    degree: usize,
+    /// Per span index k (p ≤ k < n), its slot, `usize::MAX` when empty.
+    slot: Vec<usize>,
+    inv_h: Vec<f64>,
+    coef: Vec<[f64; 4]>,
+    origin: Vec<[f64; 3]>,
+}
+
+impl PowerSegments {
+    /// The segments of a curve of degree `p` with knots `knots` and
+    /// homogeneous points `hw` (w·P, w), or `None` above
+    /// [`MAX_COEFFICIENTS`].
+    pub(crate) fn new(p: usize, knots: &[f64], hw: &[[f64; 4]]) -> Option<PowerSegments> {
+        let n = hw.len();
+        let mut slot = vec![usize::MAX; n];
+        let mut inv_h = Vec::new();
+        let mut coef = Vec::new();
+        let mut origin = Vec::new();
+        for k in p..n {
+            if knots[k + 1] <= knots[k] {
+                continue;
+            }
+            if (coef.len() + p + 1) * 4 > MAX_COEFFICIENTS {
+                return None;
+            }
+            slot[k] = inv_h.len();
+            inv_h.push(1.0 / (knots[k + 1] - knots[k]));
+            let polys = span_polynomials(knots, k, p);
+            let first = hw[k - p];
+            let o = [0, 1, 2].map(|m| first[m] / first[3]);
+            origin.push(o);
+            let mut c = vec![[0.0f64; 4]; p + 1];
+            for (i, poly) in polys.iter().enumerate().take(p + 1) {
+                let hj = hw[k - p + i];
+                let h = [
+                    hj[0] - hj[3] * o[0],
+                    hj[1] - hj[3] * o[1],
+                    hj[2] - hj[3] * o[2],
+                    hj[3],
+                ];
+                for (ca, &pa) in c.iter_mut().zip(poly.iter()) {
+                    for m in 0..4 {
+                        ca[m] += pa * h[m];
+                    }
+                }
+            }
+            coef.extend(c);
+        }
+        Some(PowerSegments {
+            degree: p,
+            slot,
+            inv_h,
+            coef,
+            origin,
+        })
+    }
+
+    /// The segment's origin O and the homogeneous A = Σ N (w(P − O), w) and
+    /// A' at t on span `k` whose left knot is `t0`; `None` for an empty
+    /// span.
+    pub(crate) fn eval(&self, k: usize, t0: f64, t: f64) -> Option<([f64; 3], [[f64; 4]; 2])> {
+        let sl = *self.slot.get(k)?;
+        if sl == usize::MAX {
+            return None;
+        }
+        let p = self.degree;
+        let h = self.inv_h[sl];
+        let s = (t - t0) * h;
+        let c = &self.coef[sl * (p + 1)..(sl + 1) * (p + 1)];
+        let (mut a, mut a_s) = ([0.0f64; 4], [0.0f64; 4]);
+        for ca in c.iter().rev() {
+            for m in 0..4 {
+                a_s[m] = a_s[m] * s + a[m];
+                a[m] = a[m] * s + ca[m];
+            }
+        }
+        for x in a_s.iter_mut() {
+            *x *= h;
+        }
+        Some((self.origin[sl], [a, a_s]))
     }
 }
