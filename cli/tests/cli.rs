@@ -363,29 +363,11 @@ fn curvature_and_view_spacing_from_the_command_line() {
 /// says which, and both meshes are of the quality issue 5 asks.
 #[test]
 fn fcc_flag_chooses_the_volume_lattice() {
-    let dir = tempfile::tempdir().unwrap();
     let mut means = HashMap::new();
     for (flag, lattice) in [(None, "bcc"), (Some("--fcc"), "fcc")] {
-        let out = dir.path().join(format!("{lattice}.msh"));
-        let rep = dir.path().join(format!("{lattice}.json"));
-        let cube = example("cube.toml");
-        let mut args = vec![
-            "mesh",
-            cube.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--size",
-            "0.05",
-            "--dim",
-            "3",
-            "--report",
-            rep.to_str().unwrap(),
-        ];
-        args.extend(flag);
-        let o = run(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+        let mut extra = vec!["--dim", "3"];
+        extra.extend(flag);
+        let v = mesh_report(&example("cube.toml"), "0.05", &extra);
         assert_eq!(v["engine"]["volumes"][0]["lattice"], lattice);
         let t = &v["quality"]["tets"];
         assert!(t["q_min"].as_f64().unwrap() > 0.45);
@@ -404,29 +386,10 @@ fn fcc_flag_chooses_the_volume_lattice() {
 /// up at both.
 #[test]
 fn a_bulky_volume_relaxes_only_its_boundary_layer() {
-    let dir = tempfile::tempdir().unwrap();
-    let step =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/step/cylinder.step");
     let mesh = |size: &str, flag: Option<&str>| {
-        let out = dir.path().join("c.msh");
-        let rep = dir.path().join("c.json");
-        let mut args = vec![
-            "mesh",
-            step.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--size",
-            size,
-            "--dim",
-            "3",
-            "--report",
-            rep.to_str().unwrap(),
-        ];
-        args.extend(flag);
-        let o = run(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap();
+        let mut extra = vec!["--dim", "3"];
+        extra.extend(flag);
+        let v = mesh_report(&fixture("cylinder.step"), size, &extra);
         let vol = &v["engine"]["volumes"][0];
         let t = &v["quality"]["tets"];
         let (mean, min, dihedral) = (

@@ -1,5 +1,6 @@
 //! Helpers the command-line test files share: the built binary, the
-//! repository's example inputs, and a run's output as text.
+//! repository's example inputs and fixtures, a run's output as text, and a
+//! mesh run's report.
 #![allow(dead_code)] // each test file uses a part
 
 use std::path::{Path, PathBuf};
@@ -15,6 +16,34 @@ pub fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../examples")
         .join(name)
+}
+
+/// A STEP fixture of the repository's `fixtures/step/`.
+pub fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/step")
+        .join(name)
+}
+
+/// `bubblemesh mesh input -o <tmp>.msh --size size --report <tmp>.json
+/// extra…`, which must succeed; its report.
+pub fn mesh_report(input: &Path, size: &str, extra: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, rep) = (dir.path().join("m.msh"), dir.path().join("r.json"));
+    let mut args = vec![
+        "mesh",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        size,
+        "--report",
+        rep.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap()
 }
 
 /// Runs `bubblemesh args…` to the end.

@@ -616,6 +616,25 @@ impl Boundary {
     fn n_fixed(&self) -> usize {
         self.fixed_ids.len()
     }
+
+    /// Stage 1's `lattice` seeds inside `carrier`'s volume, clear of the
+    /// boundary's bubbles ([`lattice_seeds`] over the boundary's box).
+    fn seeds(
+        &self,
+        carrier: &InVolume<'_>,
+        spacing: &dyn Spacing,
+        lattice: Lattice,
+    ) -> Result<Vec<(P3, f64)>, MeshError> {
+        lattice_seeds(
+            carrier,
+            spacing,
+            self.lo,
+            self.hi,
+            &self.fixed_pos,
+            &self.fixed_d,
+            lattice,
+        )
+    }
 }
 
 /// How one attempt at a volume ended.
@@ -1030,15 +1049,7 @@ fn seed_bubbles<'a>(
     lattice: Lattice,
     rep: &mut VolumeReport,
 ) -> Result<crate::bubbles::system::System<'a, InVolume<'a>>, MeshError> {
-    let seeds = lattice_seeds(
-        &carrier,
-        spacing,
-        boundary.lo,
-        boundary.hi,
-        &boundary.fixed_pos,
-        &boundary.fixed_d,
-        lattice,
-    )?;
+    let seeds = boundary.seeds(&carrier, spacing, lattice)?;
     rep.stage1_bubbles = seeds.len();
     let mut sys = crate::bubbles::system::System::with_fixed(
         carrier,
@@ -1109,15 +1120,7 @@ fn layered_bubbles<'a>(
     carrier: InVolume<'a>,
     rep: &mut VolumeReport,
 ) -> Result<Option<Held<'a>>, MeshError> {
-    let seeds = lattice_seeds(
-        &carrier,
-        spacing,
-        boundary.lo,
-        boundary.hi,
-        &boundary.fixed_pos,
-        &boundary.fixed_d,
-        Lattice::Bcc,
-    )?;
+    let seeds = boundary.seeds(&carrier, spacing, Lattice::Bcc)?;
     rep.stage1_bubbles = seeds.len();
     let dmax = boundary
         .fixed_d

@@ -443,13 +443,7 @@ mod tests {
     /// knot and at random parameters.
     #[test]
     fn power_form_tangent_equals_the_book_algorithm() {
-        let mut state = 0x7a3e_11c5_u64;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut unit = crate::testing::unit(0x7a3e_11c5);
         for p in [1usize, 2, 3, 5, 7, 11] {
             let mut knots = vec![-3.0; p + 1];
             for (k, m) in [(1.0, 1), (1.5, p.min(3)), (4.0, p)] {

@@ -558,14 +558,7 @@ mod tests {
     /// the surface has no patches and A2.3 answers.
     #[test]
     fn power_form_tangents_equal_the_book_algorithm() {
-        // deterministic numbers in [−0.5, 0.5) (xorshift64)
-        let mut state = 0x51ed_2701_u64;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut unit = crate::testing::unit(0x51ed_2701);
         let cases: [(usize, usize, Vec<f64>, Vec<f64>); 4] = [
             (
                 1,
