@@ -61,6 +61,16 @@ pub(crate) struct PowerPatches {
     n_slots_v: usize,
 }
 
+/// The homogeneous point (w·P, w) as (w·(P − O), w).
+fn relative(hw: &[f64; 4], o: &[f64; 3]) -> [f64; 4] {
+    [
+        hw[0] - hw[3] * o[0],
+        hw[1] - hw[3] * o[1],
+        hw[2] - hw[3] * o[2],
+        hw[3],
+    ]
+}
+
 /// The coefficients of s^m (m ≤ p) of the p + 1 basis functions
 /// N_{k−p+j,p} on span k of `knots`, s = (u − u_k)/(u_k+1 − u_k): A2.2 on
 /// polynomials. `out[j][m]`.
@@ -153,13 +163,7 @@ impl PowerPatches {
                     let row = (ku - p + i) * nv + kv - q;
                     let mut t = [[0.0f64; 4]; MAXP];
                     for j in 0..=q {
-                        let hj = &hw[row + j];
-                        let h = [
-                            hj[0] - hj[3] * o[0],
-                            hj[1] - hj[3] * o[1],
-                            hj[2] - hj[3] * o[2],
-                            hj[3],
-                        ];
+                        let h = relative(&hw[row + j], &o);
                         for (b, tb) in t.iter_mut().enumerate().take(q + 1) {
                             let c = pv[j][b];
                             for m in 0..4 {
@@ -273,13 +277,7 @@ impl PowerSegments {
             origin.push(o);
             let mut c = vec![[0.0f64; 4]; p + 1];
             for (i, poly) in polys.iter().enumerate().take(p + 1) {
-                let hj = hw[k - p + i];
-                let h = [
-                    hj[0] - hj[3] * o[0],
-                    hj[1] - hj[3] * o[1],
-                    hj[2] - hj[3] * o[2],
-                    hj[3],
-                ];
+                let h = relative(&hw[k - p + i], &o);
                 for (ca, &pa) in c.iter_mut().zip(poly.iter()) {
                     for m in 0..4 {
                         ca[m] += pa * h[m];

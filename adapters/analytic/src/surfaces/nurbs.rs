@@ -553,9 +553,10 @@ mod tests {
     }
 
     /// The power-form patches (`power_form`) give A2.3's point and first
-    /// partials to rounding on rational nets of degrees 1 to 11, with repeated interior knots (empty spans), uneven spans far
-    /// from the origin, and at span ends; where the net is over the budget
-    /// the surface has no patches and A2.3 answers.
+    /// partials to rounding on rational nets of degrees 1 to 11, with
+    /// repeated interior knots (empty spans), uneven spans far from the
+    /// origin, and at span ends; where the net is over the budget the
+    /// surface has no patches and A2.3 answers.
     #[test]
     fn power_form_tangents_equal_the_book_algorithm() {
         let mut unit = crate::testing::unit(0x51ed_2701);
