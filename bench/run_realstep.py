@@ -7,6 +7,7 @@ write bench/out/realstep/results.json and bench/out/realstep/RESULTS.md.
     python3 bench/run_realstep.py [--modes surf,tet] [--files a,b] [--timeout 300]
                                   [--mem-mb 8000] [--threads 1]
                                   [--divisor-surf 25] [--divisor-tet 20]
+                                  [--dir DIR]
 
 Sizes (shared/realstep/SOURCES.md): surfaces (`--dim 2`) at d = diag/25,
 tetrahedra (`--dim 3`) at d = diag/20, diag being the diagonal of the part's
@@ -15,6 +16,10 @@ so the box is tight), the same d for both meshers. Other divisors (a sweep
 over sizes) write to bench/out/realstep_s<surf>_t<tet>/. OpenCascade converts every
 file to millimetres, so bubblemesh runs with `--unit mm` (files in metres,
 centimetres or inches would otherwise be meshed at 1000, 10 or 25.4 times d).
+
+`--dir DIR` runs the same comparison on every STEP file of another folder
+(e.g. the seeded random parts of bench/random_parts.py), writing to
+bench/out/<DIR's name>_meshed/.
 
 Gmsh: OpenCascade STEP import, Frontal-Delaunay (algorithm 6) for surfaces,
 HXT (algorithm 10) for tetrahedra, uniform size d (no size from points or
@@ -173,13 +178,17 @@ def main():
     ap.add_argument("--timeout", type=float, default=300)
     ap.add_argument("--mem-mb", type=int, default=8000)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--dir", default="", help="the STEP files of this folder instead of ../shared/realstep")
     ap.add_argument("--skip-gmsh", action="store_true", help="reuse Gmsh's results from the last run")
     ap.add_argument("--divisor-surf", type=float, default=DIVISOR["surf"],
                     help="surfaces at d = diag / this (default 25, the benchmark's)")
     ap.add_argument("--divisor-tet", type=float, default=DIVISOR["tet"],
                     help="tetrahedra at d = diag / this (default 20, the benchmark's)")
     a = ap.parse_args()
-    global OUT
+    global OUT, REALSTEP
+    if a.dir:
+        REALSTEP = os.path.abspath(a.dir)
+        OUT = os.path.join(os.path.dirname(OUT), os.path.basename(REALSTEP.rstrip("/")) + "_meshed")
     if (a.divisor_surf, a.divisor_tet) != (DIVISOR["surf"], DIVISOR["tet"]):
         # other sizes (a robustness sweep) keep their own results
         OUT = f"{OUT}_s{a.divisor_surf:g}_t{a.divisor_tet:g}"

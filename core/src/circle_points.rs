@@ -780,6 +780,10 @@ fn face_caps(
 ) -> Vec<Option<FaceCap>> {
     let mut caps = Vec::with_capacity(model.faces.len());
     for (fi, face) in model.faces.iter().enumerate() {
+        if face.loops.is_empty() && !face.surface.is_planar() {
+            caps.push(closed_face_cap(model, fi, inner, n, samples, report));
+            continue;
+        }
         let (along, length) = turning_lines(model, fi);
         if along == [false, false] {
             caps.push(None);
@@ -841,6 +845,86 @@ fn face_caps(
         }
     }
     caps
+}
+
+/// Samples per direction of the (u,v) grid [`closed_face_cap`] probes.
+const CLOSED_PROBE: usize = 16;
+
+/// A closed face capped at n nodes per turn may have at most about this
+/// many nodes (a ring torus of wire radius 10⁻³·d would have hundreds of
+/// thousands; a sphere has about 20 whatever its radius).
+const CLOSED_CAP_MAX_NODES: f64 = 20_000.0;
+
+/// The cap of a face without boundary (a whole sphere, a torus): it has no
+/// edges to measure on, so its (u,v) domain is probed on a grid, and where
+/// the cap is below the requested spacing the face takes it and samples go
+/// into `samples` (its embedded vertices, a sphere's poles, grade from
+/// them). Without it a sphere of radius below the spacing got no bubble
+/// (its pole vertex's bubble of diameter d covered it) and no triangle.
+fn closed_face_cap(
+    model: &Model,
+    fi: usize,
+    inner: &dyn Spacing,
+    n: u32,
+    samples: &mut Vec<Sample>,
+    report: &mut CirclePointsReport,
+) -> Option<FaceCap> {
+    let face = &model.faces[fi];
+    let surface = face.surface.as_ref();
+    let (du, dv) = surface.domain();
+    if ![du[0], du[1], dv[0], dv[1]].iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let fc = FaceCap {
+        surface: face.surface.clone(),
+        along: [true, true],
+    };
+    let (hu, hv) = (
+        (du[1] - du[0]) / CLOSED_PROBE as f64,
+        (dv[1] - dv[0]) / CLOSED_PROBE as f64,
+    );
+    let mut found = Vec::new();
+    let (mut area, mut finest): (f64, Option<CappedEdge>) = (0.0, None);
+    for i in 0..CLOSED_PROBE {
+        for j in 0..CLOSED_PROBE {
+            // cell centres: never on a pole
+            let uv = [du[0] + (i as f64 + 0.5) * hu, dv[0] + (j as f64 + 0.5) * hv];
+            let s = surface.derivs(uv[0], uv[1]);
+            area += s.su.cross(&s.sv).norm() * hu * hv;
+            let p = surface.point(uv[0], uv[1]);
+            let d = inner.spacing(&SpacingQuery {
+                point: p,
+                entity: EntityRef::new(2, fi as u32),
+                params: uv,
+            });
+            let c = fc.cap(uv, n);
+            if !(c < d && d.is_finite() && c > 0.0) {
+                continue;
+            }
+            found.push(Sample {
+                p,
+                c,
+                reach: 1.5 * (d - c) / GRADE,
+            });
+            if finest.as_ref().is_none_or(|w| c < w.d) {
+                finest = Some(CappedEdge {
+                    edge: fi as u32,
+                    name: face.name.clone(),
+                    radius: c * n as f64 / std::f64::consts::TAU,
+                    d: c,
+                    requested: d,
+                });
+            }
+        }
+    }
+    let w = finest?;
+    // nodes ≈ triangles / 2, a triangle of side c having area 0.433 c²
+    if area / (0.433 * w.d * w.d) / 2.0 > CLOSED_CAP_MAX_NODES {
+        return None;
+    }
+    samples.append(&mut found);
+    report.capped_faces.push(w);
+    Some(fc)
 }
 
 /// The bounding box of `pts` (inverted, +∞ to −∞, when there are none).

@@ -11,6 +11,11 @@
 //!   directions (the face is a consistently oriented, closed-up 2-manifold
 //!   with exactly its loops as boundary); no two neighbouring triangles fold
 //!   back onto each other (their normals turn by more than `FOLD_COS`);
+//!   every embedded vertex of the face (a `VERTEX_LOOP`'s, a pole's, an
+//!   apex's) is a corner of one of its triangles, and every node of the
+//!   face's own is (a face meshed as the wrong side of its loops, or capped
+//!   flat across a pole it left out, fails here: the independent checker
+//!   calls such a node unreferenced);
 //! - **across faces**: a segment of a model edge lies in exactly as many
 //!   triangles as the model has face uses of the edge, and a segment that is
 //!   on no model edge belongs to one face only; where an edge joins exactly
@@ -21,7 +26,8 @@
 //! - **volumes**: every tetrahedron positive (exact `orient3d`); every
 //!   triangle of the volume's faces is a face of exactly one of its
 //!   tetrahedra, every other tetrahedron face is shared by exactly two, so
-//!   the tetrahedra's boundary is exactly the volume's face meshes.
+//!   the tetrahedra's boundary is exactly the volume's face meshes; every
+//!   node of the volume's own is a corner of one of its tetrahedra.
 //!
 //! The checks are O(n) hash-map passes; on case K (1.3 M tetrahedra) they
 //! cost a small fraction of the meshing time.
@@ -182,6 +188,58 @@ pub struct Touching {
     pub entities: Vec<[String; 2]>,
     /// The first pair's place, model coordinates.
     pub at: [f64; 3],
+}
+
+/// A volume of the model whose faces do not close it: some of its edges
+/// are used by one of its faces only (a CAD file's closed shell with a
+/// face missing or an edge not shared). Its tetrahedra cannot be made;
+/// its surface mesh is written but is open there.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OpenShell {
+    /// The volume, e.g. `volume 0 ("Part 1")`.
+    pub volume: String,
+    /// How many of its edges one face only uses.
+    pub edges: usize,
+    /// The first such edge, e.g. `edge 12 ("#345")`.
+    pub first: String,
+    /// A point of that edge, model coordinates.
+    pub at: [f64; 3],
+}
+
+/// The first volume of `model` with an edge that one of its faces only
+/// uses ([`OpenShell`]); `None` when every volume is closed.
+pub fn open_shell(model: &Model) -> Option<OpenShell> {
+    for (vi, v) in model.volumes.iter().enumerate() {
+        let mut uses: HashMap<u32, u32> = HashMap::new();
+        for &f in &v.faces {
+            let Some(face) = model.faces.get(f as usize) else {
+                continue;
+            };
+            for u in face.loops.iter().flat_map(|l| l.edges.iter()) {
+                *uses.entry(u.edge).or_default() += 1;
+            }
+            for &e in &face.embedded_edges {
+                *uses.entry(e).or_default() += 2;
+            }
+        }
+        let mut open: Vec<u32> = uses
+            .iter()
+            .filter(|(_, &c)| c == 1)
+            .map(|(&e, _)| e)
+            .collect();
+        if let Some(&first) = open.iter().min() {
+            open.sort_unstable();
+            let e = &model.edges[first as usize];
+            let p = e.curve.point(0.5 * (e.t0 + e.t1));
+            return Some(OpenShell {
+                volume: model.describe(EntityRef::new(3, vi as u32)),
+                edges: open.len(),
+                first: model.describe(EntityRef::new(1, first)),
+                at: [p.x, p.y, p.z],
+            });
+        }
+    }
+    None
 }
 
 /// Entity pairs listed in [`Touching::entities`].
@@ -395,6 +453,7 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
             });
         }
     }
+    check_face_corners(model, mesh)?;
     // first the counts (gaps, non-manifold edges, overlapping faces), then
     // orientation and folds: the message names the most basic defect
     // segments in node order, so that the error names the same defect
@@ -434,6 +493,64 @@ fn check_faces(model: &Model, mesh: &Mesh, diag: f64, orientation: bool) -> Resu
         }
         if let Some(f) = first {
             return Err(f);
+        }
+    }
+    Ok(())
+}
+
+/// Every embedded vertex of a face is a corner of one of the face's
+/// triangles, and every node on a face itself is a corner of one of that
+/// face's triangles. Refinable: a face that left a pole or a vertex loop's
+/// vertex out at this spacing may take it at a finer one.
+fn check_face_corners(model: &Model, mesh: &Mesh) -> Result<(), CheckError> {
+    let mut vertex_node: HashMap<u32, u32> = HashMap::new();
+    for (i, n) in mesh.nodes.iter().enumerate() {
+        if n.entity.dim == 0 {
+            vertex_node.insert(n.entity.id, i as u32);
+        }
+    }
+    // (face, node) for every corner of every triangle
+    let mut corner: std::collections::HashSet<(u32, u32)> = Default::default();
+    for t in &mesh.triangles {
+        for &v in &t.nodes {
+            corner.insert((t.entity.id, v));
+        }
+    }
+    let missing = |face: u32, node: u32, what: String| CheckError {
+        also: vec![],
+        refinable: true,
+        entity: EntityRef::new(2, face),
+        what,
+        at: pos(mesh, node),
+    };
+    for (fi, f) in model.faces.iter().enumerate() {
+        let fe = EntityRef::new(2, fi as u32);
+        for &v in &f.embedded_vertices {
+            if let Some(&node) = vertex_node.get(&v) {
+                if !corner.contains(&(fi as u32, node)) {
+                    return Err(missing(
+                        fi as u32,
+                        node,
+                        format!(
+                            "{} is no corner of any triangle of {}, which contains it (the face's mesh leaves out a vertex of its boundary)",
+                            model.describe(EntityRef::new(0, v)),
+                            model.describe(fe)
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    for (i, n) in mesh.nodes.iter().enumerate() {
+        if n.entity.dim == 2 && !corner.contains(&(n.entity.id, i as u32)) {
+            return Err(missing(
+                n.entity.id,
+                i as u32,
+                format!(
+                    "a node of {} is no corner of any of its triangles",
+                    model.describe(n.entity)
+                ),
+            ));
         }
     }
     Ok(())
@@ -620,6 +737,28 @@ fn check_volumes(model: &Model, mesh: &Mesh) -> Result<(), CheckError> {
                 })
             }
         }
+    }
+    // every node of a volume's own is a corner of one of its tetrahedra
+    let mut in_tet = vec![false; mesh.nodes.len()];
+    for t in &mesh.tetrahedra {
+        for &v in &t.nodes {
+            if let Some(x) = in_tet.get_mut(v as usize) {
+                *x = true;
+            }
+        }
+    }
+    if let Some(i) = (0..mesh.nodes.len()).find(|&i| mesh.nodes[i].entity.dim == 3 && !in_tet[i]) {
+        let vol = mesh.nodes[i].entity;
+        return Err(CheckError {
+            also: vec![],
+            refinable: true,
+            entity: vol,
+            what: format!(
+                "a node of {} is no corner of any of its tetrahedra",
+                model.describe(vol)
+            ),
+            at: pos(mesh, i as u32),
+        });
     }
     for (vi, tets) in by_volume.iter().enumerate() {
         let vol = EntityRef::new(3, vi as u32);

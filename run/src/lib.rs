@@ -15,6 +15,7 @@
 //!   through `bubblemesh-viz`, staged in an [`OutputSet`] (written whole
 //!   or not at all);
 //! - the warnings a run prints ([`refined_warnings`], [`touching_warning`],
+//!   [`open_shell_warning`],
 //!   [`poor_element_warnings`]) and its progress bar ([`progress_bar`]).
 //!
 //! Every failure is an [`Error`], whose text is the command line's
@@ -720,6 +721,18 @@ pub fn touching_warning(report: &Report) -> Option<String> {
          each part is meshed on its own, so they are not connected there (a simulation needs contact or tie \
          conditions; a checker that wants one connected mesh counts them as duplicate nodes)",
         t.node_pairs, t.at[0], t.at[1], t.at[2]
+    ))
+}
+
+/// The warning that a volume's faces do not close it
+/// ([`bubblemesh_core::verify::open_shell`]): the surface mesh is written,
+/// open where the file's shell is.
+pub fn open_shell_warning(report: &Report) -> Option<String> {
+    let o = report.open_shell.as_ref()?;
+    Some(format!(
+        "warning: the faces of {} do not close it: {} edge(s) lie on one of its faces only, the first {} near \
+         ({:.6}, {:.6}, {:.6}); the surface mesh is open there as the file's shell is (tetrahedra need a closed one)",
+        o.volume, o.edges, o.first, o.at[0], o.at[1], o.at[2]
     ))
 }
 

@@ -223,3 +223,53 @@ outer = { polygon = [[2, 0], [3, 0], [3, 1], [2, 1]] }
     faces.dedup();
     assert_eq!(faces, vec![0, 1], "{e:?}");
 }
+
+/// A vertex the face contains (a `VERTEX_LOOP`'s, a pole's) must be a
+/// corner of the face's triangles: a face meshed as the wrong side of its
+/// loops, or capped flat across its pole, leaves it out (the independent
+/// checker then finds an unreferenced node).
+#[test]
+fn an_embedded_vertex_left_out_of_its_face_is_refused() {
+    let (mut m, mut mesh) = meshed(SQUARE, 0.1, 2);
+    let t = interior_triangle(&mesh);
+    let [a, b, c] = mesh.triangles[t].nodes.map(|n| mesh.nodes[n as usize].pos);
+    let centre = bubblemesh_core::P3::from((a.coords + b.coords + c.coords) / 3.0);
+    m.vertices.push(bubblemesh_core::model::Vertex {
+        point: centre,
+        name: Some("inside".into()),
+    });
+    let v = (m.vertices.len() - 1) as u32;
+    m.faces[0].embedded_vertices.push(v);
+    mesh.nodes.push(bubblemesh_core::mesh::Node {
+        pos: centre,
+        entity: bubblemesh_core::model::EntityRef::new(0, v),
+        params: [0.0, 0.0],
+    });
+    fails_with(&m, &mesh, 2, "is no corner of any triangle of face 0");
+}
+
+/// A node of a face's own that no triangle of the face uses.
+#[test]
+fn a_face_node_in_no_triangle_is_refused() {
+    let (m, mut mesh) = meshed(SQUARE, 0.1, 2);
+    let t = interior_triangle(&mesh);
+    let [a, b, c] = mesh.triangles[t].nodes.map(|n| mesh.nodes[n as usize].pos);
+    mesh.nodes.push(bubblemesh_core::mesh::Node {
+        pos: bubblemesh_core::P3::from((a.coords + b.coords + c.coords) / 3.0),
+        entity: bubblemesh_core::model::EntityRef::new(2, 0),
+        params: [0.0, 0.0],
+    });
+    fails_with(&m, &mesh, 2, "is no corner of any of its triangles");
+}
+
+/// A node of a volume's own that no tetrahedron uses.
+#[test]
+fn a_volume_node_in_no_tetrahedron_is_refused() {
+    let (m, mut mesh) = meshed(CUBE, 0.25, 3);
+    mesh.nodes.push(bubblemesh_core::mesh::Node {
+        pos: bubblemesh_core::P3::new(0.5, 0.5, 0.5001),
+        entity: bubblemesh_core::model::EntityRef::new(3, 0),
+        params: [0.0, 0.0],
+    });
+    fails_with(&m, &mesh, 3, "is no corner of any of its tetrahedra");
+}

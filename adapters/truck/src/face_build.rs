@@ -7,7 +7,7 @@
 
 use std::sync::Arc;
 
-use bubblemesh_core::geom::{Surface, P3};
+use bubblemesh_core::geom::{Surface, P3, V3};
 use bubblemesh_core::model::{Face, Loop, Model};
 
 use crate::face_view::FaceView;
@@ -43,6 +43,7 @@ pub(crate) fn face_from_loops(
         model,
         1e-3 * extent,
         name,
+        None,
     )
     .map(|(f, _)| f)
 }
@@ -117,6 +118,7 @@ pub(crate) fn face_from_loops_within(
     model: &Model,
     far: f64,
     name: String,
+    sphere: Option<(P3, f64)>,
 ) -> Result<(Face, f64), String> {
     // boundary samples in the base surface's (u,v), each loop unwrapped
     let mut hint: Option<[f64; 2]> = None;
@@ -203,6 +205,54 @@ pub(crate) fn face_from_loops_within(
     }
     if loops_uv.is_empty() {
         keep = [periods[0].is_some(), periods[1].is_some()];
+    }
+    // A face none of whose loops wraps around its periodic surface, with
+    // the face outside the largest (on its right, seen from the face's
+    // normal), is the closed surface minus the loops' insides: a sphere
+    // with a dimple or a second, overlapping void cut out (OpenCascade
+    // writes it with a VERTEX_LOOP at a pole it keeps). Its (u,v) box would
+    // read it as the inside of the loop, the cut-out cap. On a sphere the
+    // poles are moved into the largest loop (the axis along the loop's
+    // vector area): the loop then wraps around the axis and the face runs
+    // from it to the far pole like any cap. Other closed surfaces are
+    // refused rather than meshed as the wrong side.
+    if keep == [false, false] && !loops_uv.is_empty() && periods.iter().any(|p| p.is_some()) {
+        let sense = if same_sense { 1.0 } else { -1.0 };
+        let largest = (0..loops_uv.len())
+            .max_by(|&i, &j| area(&loops_uv[i]).total_cmp(&area(&loops_uv[j])))
+            .unwrap_or(0);
+        if signed_area(&loops_uv[largest]) * sense < 0.0 {
+            let outside = "its loops are all holes in its closed surface (the face is the surface minus their insides)";
+            let Some((centre, radius)) = sphere else {
+                return Err(errs(format!("{outside}: supported on spheres only")));
+            };
+            let pts: Vec<P3> = loops[largest]
+                .edges
+                .iter()
+                .flat_map(|u| {
+                    let e = &model.edges[u.edge as usize];
+                    (0..K).map(move |k| e.curve.point(e.t0 + (e.t1 - e.t0) * k as f64 / K as f64))
+                })
+                .collect();
+            let mut vector_area = V3::zeros();
+            for k in 0..pts.len() {
+                vector_area += (pts[k] - centre).cross(&(pts[(k + 1) % pts.len()] - centre));
+            }
+            let turned = bubblemesh_analytic::Frame::new(centre, vector_area)
+                .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))
+                .map_err(|e| errs(format!("{outside}: its sphere cannot be turned ({e})")))?;
+            return face_from_loops_within(
+                Arc::new(turned),
+                planar,
+                same_sense,
+                loops,
+                embedded,
+                model,
+                far,
+                name,
+                None,
+            );
+        }
     }
     // other loops (and embedded vertices) moved next to the first loop
     let centre = |l: &[[f64; 2]]| {
@@ -332,9 +382,11 @@ pub(crate) fn face_from_loops_within(
             }
         }
         dom[c] = [a, b];
-        // the face runs on past its loops to a collapsed end in c: its
-        // pole or apex vertex when the file has one (the range already
-        // reaches it), else the surface's end
+        // the face runs on past its loops to a collapsed end in c: the
+        // surface's end where it has one (whatever vertices lie between: a
+        // VERTEX_LOOP's vertex inside a turned sphere's face is no pole),
+        // else the pole or apex vertex the file gives (the range already
+        // reaches it)
         let loop_lo = loops_uv
             .iter()
             .flatten()
@@ -355,14 +407,15 @@ pub(crate) fn face_from_loops_within(
                 dom[c][0] < loop_lo - tol
             }
         };
-        if let Some(end) = open_end.filter(|&e| wrap_dir == Some(1 - c) && !reached(e)) {
+        if let Some(end) = open_end.filter(|_| wrap_dir == Some(1 - c)) {
             let e = bdom[c][end];
-            if !e.is_finite() {
+            if e.is_finite() {
+                dom[c][end] = e;
+            } else if !reached(end) {
                 return Err(errs(
                     "it is bounded on one side only by its loops around an unbounded surface",
                 ));
             }
-            dom[c][end] = e;
         }
     }
     let view_periods = [
@@ -397,6 +450,11 @@ pub(crate) fn face_from_loops_within(
 
 /// |signed area| of a closed polygon in (u,v).
 fn area(l: &[[f64; 2]]) -> f64 {
+    signed_area(l).abs()
+}
+
+/// Signed area of a closed polygon in (u,v), positive counter-clockwise.
+fn signed_area(l: &[[f64; 2]]) -> f64 {
     let n = l.len();
     // relative to the first point (no cancellation far from the origin)
     let o = l.first().copied().unwrap_or([0.0, 0.0]);
@@ -407,6 +465,5 @@ fn area(l: &[[f64; 2]]) -> f64 {
             a[0] * b[1] - b[0] * a[1]
         })
         .sum::<f64>()
-        .abs()
         * 0.5
 }

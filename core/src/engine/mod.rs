@@ -88,6 +88,10 @@ pub struct Report {
     /// without being joined ([`crate::verify::touching_parts`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub touching: Option<crate::verify::Touching>,
+    /// A volume whose faces do not close it ([`crate::verify::open_shell`]):
+    /// its surface mesh is open there (its tetrahedra would have failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub open_shell: Option<crate::verify::OpenShell>,
     /// Edges meshed finer than requested to keep the least number of
     /// nodes per turn, and the faces graded from them
     /// ([`crate::circle_points`]); absent where none was.
@@ -489,6 +493,7 @@ fn mesh_once(
     // never silently wrong: the mesh leaves the engine only after its check
     crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
     report.touching = crate::verify::touching_parts(&mesh);
+    report.open_shell = crate::verify::open_shell(model);
     report.nodes = mesh.nodes.len();
     report.lines = mesh.lines.len();
     report.triangles = mesh.triangles.len();

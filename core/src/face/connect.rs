@@ -306,6 +306,73 @@ pub fn triangulate_surface(
     Ok(tris)
 }
 
+/// Triangulation of a closed face without boundary (a whole sphere, a
+/// closed convex patch) as the convex hull of its points: the boundary of
+/// their 3D Delaunay tetrahedralization. On a sphere the hull is the
+/// Delaunay triangulation on the surface itself (a hull facet's
+/// circumcircle is where its plane cuts the sphere, empty of points), so
+/// it needs no parametrization: the fallback of a sphere so small against
+/// the spacing that every bubble lies in a pole's cap and the (u,v)
+/// triangulation is empty (a spherical void of radius d/4).
+///
+/// Refused (an error) unless every point is a corner of the hull and every
+/// hull triangle faces the way of the surface normals at its corners (the
+/// face is convex as sampled). Triangles come out oriented along the
+/// normal.
+pub fn triangulate_hull(pts: &SurfacePoints<'_>) -> Result<Vec<[usize; 3]>, ConnectError> {
+    let n = pts.pos.len();
+    let coords: Vec<[f64; 3]> = pts.pos.iter().map(|p| [p.x, p.y, p.z]).collect();
+    let t = bubblemesh_delaunay::tetrahedralize(&coords)
+        .map_err(|e| ConnectError::Coarse(format!("its points have no hull: {e}")))?;
+    if !t.duplicates.is_empty() {
+        return Err(ConnectError::Coarse("two of its points coincide".into()));
+    }
+    let mut tris = Vec::new();
+    for (tet, nb) in t.tets.iter().zip(&t.neighbours) {
+        for (i, &other) in nb.iter().enumerate() {
+            if other == bubblemesh_delaunay::HULL {
+                // the face opposite corner i: every hull face is oriented
+                // alike (which way is decided below)
+                let f = crate::measure::TET_FACES[i].map(|k| tet[k] as usize);
+                tris.push(f);
+            }
+        }
+    }
+    let mut used = vec![false; n];
+    for t in &tris {
+        for &v in t {
+            used[v] = true;
+        }
+    }
+    if let Some(i) = used.iter().position(|u| !u) {
+        let p = pts.pos[i];
+        return Err(ConnectError::Coarse(format!(
+            "the face is not convex: its point ({}, {}, {}) is inside the hull of the others",
+            p.x, p.y, p.z
+        )));
+    }
+    // the sign of each triangle's normal against the surface normals at its
+    // corners (a pole's normal may be unusable: it is not judged)
+    let sides = |sign: f64| {
+        tris.iter().all(|t| {
+            let [a, b, c] = t.map(|k| pts.pos[k]);
+            let nrm = (b - a).cross(&(c - a));
+            t.iter().all(|&k| {
+                let s = nrm.dot(&pts.normal[k]) * sign;
+                !s.is_finite() || pts.normal[k].norm() < 0.5 || s > 0.0
+            })
+        })
+    };
+    let (outward, inward) = (sides(1.0), sides(-1.0));
+    match (outward, inward) {
+        (true, _) => Ok(tris),
+        (false, true) => Ok(tris.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
+        _ => Err(ConnectError::Coarse(
+            "the hull of its points does not follow the surface (the face is not convex)".into(),
+        )),
+    }
+}
+
 /// The least cosine between a point's surface normal and the face's mean
 /// normal for [`triangulate_projected`]: below it the projection onto one
 /// plane squeezes the face too much to be trusted (the final checks would
@@ -966,5 +1033,84 @@ mod classification {
         let t = triangulate(&uv, &b, &b, |_| true).unwrap();
         let area: f64 = t.iter().map(|t| signed_area(&uv, *t)).sum();
         assert!((area - 8.0).abs() < 1e-12, "area {area}");
+    }
+
+    /// Points of a closed face as `SurfacePoints` (the (u,v) are not used
+    /// by the hull).
+    fn closed(pos: &[crate::geom::P3], normal: &[crate::geom::V3]) -> Vec<[usize; 3]> {
+        let n = pos.len();
+        let (uv, d, singular) = (vec![[0.0, 0.0]; n], vec![1.0; n], vec![false; n]);
+        let pts = SurfacePoints {
+            uv: &uv,
+            pos,
+            normal,
+            d: &d,
+            singular: &singular,
+            periods: [None, None],
+            origin: [0.0, 0.0],
+            scale: [1.0, 1.0],
+        };
+        triangulate_hull(&pts).unwrap_or_default()
+    }
+
+    /// A sphere sampled by a dozen points (a void far below the spacing):
+    /// its hull is a closed surface (every edge in two triangles, Euler
+    /// characteristic 2) with every point a corner and every triangle
+    /// facing out along the normal, here the outward one, then the inward
+    /// one (a void's face turned the other way).
+    #[test]
+    fn a_small_sphere_is_connected_as_its_hull() {
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let n = 12;
+        let c = crate::geom::P3::new(1e3, -2e3, 5e2); // far from the origin
+        let r = 0.3;
+        let dirs: Vec<crate::geom::V3> = (0..n)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+                let s = (1.0 - z * z).sqrt();
+                let a = golden * k as f64;
+                crate::geom::V3::new(s * a.cos(), s * a.sin(), z)
+            })
+            .collect();
+        let pos: Vec<crate::geom::P3> = dirs.iter().map(|u| c + u * r).collect();
+        for sign in [1.0, -1.0] {
+            let normal: Vec<crate::geom::V3> = dirs.iter().map(|u| u * sign).collect();
+            let t = closed(&pos, &normal);
+            assert_eq!(t.len(), 2 * n - 4, "sign {sign}");
+            let mut uses: HashMap<(usize, usize), i32> = HashMap::new();
+            for tri in &t {
+                let nrm = (pos[tri[1]] - pos[tri[0]]).cross(&(pos[tri[2]] - pos[tri[0]]));
+                for k in 0..3 {
+                    assert!(nrm.dot(&normal[tri[k]]) > 0.0, "a triangle faces inwards");
+                    *uses.entry((tri[k], tri[(k + 1) % 3])).or_default() += 1;
+                }
+            }
+            // each directed edge once, and its reverse too: closed, oriented
+            assert!(uses
+                .iter()
+                .all(|(&(a, b), &u)| u == 1 && uses.get(&(b, a)) == Some(&1)));
+        }
+    }
+
+    /// Points that are not in convex position (one inside the hull of the
+    /// others, a dent) are refused, not triangulated around.
+    #[test]
+    fn a_non_convex_closed_face_is_not_connected_as_a_hull() {
+        let v = |x: f64, y: f64, z: f64| crate::geom::V3::new(x, y, z);
+        let dirs = [
+            v(1.0, 0.0, 0.0),
+            v(-1.0, 0.0, 0.0),
+            v(0.0, 1.0, 0.0),
+            v(0.0, -1.0, 0.0),
+            v(0.0, 0.0, 1.0),
+            v(0.0, 0.0, -1.0),
+        ];
+        let mut pos: Vec<crate::geom::P3> =
+            dirs.iter().map(|u| crate::geom::P3::origin() + u).collect();
+        let mut normal: Vec<crate::geom::V3> = dirs.to_vec();
+        // a dent: a point pushed in towards the centre
+        pos.push(crate::geom::P3::new(0.2, 0.2, 0.2));
+        normal.push(v(1.0, 1.0, 1.0).normalize());
+        assert!(closed(&pos, &normal).is_empty());
     }
 }

@@ -140,6 +140,11 @@ pub struct FaceReport {
     /// radius used, in spacings, and the error with the usual caps.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub smaller_caps: Option<(f64, String)>,
+    /// Why a closed face (no boundary) was connected as the convex hull of
+    /// its bubbles ([`connect::triangulate_hull`]): the error of the (u,v)
+    /// connection at this spacing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub connected_as_hull: Option<String>,
 }
 
 /// How a curved face was connected where its (u,v) connection with caps of
@@ -149,15 +154,22 @@ enum Fallback {
     SmallerCaps(f64, String),
     /// The whole face in its mean tangent plane.
     InPlane(String),
+    /// A closed face as the convex hull of its bubbles.
+    Hull(String),
 }
 
 impl FaceReport {
     /// Records how the face was last connected (`None`: in (u,v) as usual).
     fn record(&mut self, fallback: Option<Fallback>) {
-        (self.connected_in_plane, self.smaller_caps) = match fallback {
-            None => (None, None),
-            Some(Fallback::SmallerCaps(r, why)) => (None, Some((r, why))),
-            Some(Fallback::InPlane(why)) => (Some(why), None),
+        (
+            self.connected_in_plane,
+            self.smaller_caps,
+            self.connected_as_hull,
+        ) = match fallback {
+            None => (None, None, None),
+            Some(Fallback::SmallerCaps(r, why)) => (None, Some((r, why)), None),
+            Some(Fallback::InPlane(why)) => (Some(why), None, None),
+            Some(Fallback::Hull(why)) => (None, None, Some(why)),
         };
     }
 }
@@ -971,7 +983,28 @@ impl<'a> FaceJob<'a> {
                     | connect::ConnectError::Duplicate(..)
             )
         };
-        let first = match connect::triangulate_surface(&pts, segments, directed) {
+        // a fixed bubble (an embedded vertex near a pole the cap leaves out)
+        // must be a corner: a cap that drops one is a coarse connection
+        let nf = sys.n_fixed;
+        let with_fixed = |r: Result<Vec<[usize; 3]>, connect::ConnectError>| {
+            let tris = r?;
+            let mut used = vec![false; nf];
+            for t in &tris {
+                for &v in t {
+                    if v < nf {
+                        used[v] = true;
+                    }
+                }
+            }
+            match used.iter().position(|&u| !u) {
+                None => Ok(tris),
+                Some(i) => Err(connect::ConnectError::Coarse(format!(
+                    "the fixed node at ({}, {}, {}) is left out of the triangles",
+                    sys.pos[i].x, sys.pos[i].y, sys.pos[i].z
+                ))),
+            }
+        };
+        let first = match with_fixed(connect::triangulate_surface(&pts, segments, directed)) {
             Ok(tris) => return Ok((tris, None)),
             Err(e) if retryable(&e) => e,
             Err(e) => return Err(e.into()),
@@ -984,17 +1017,25 @@ impl<'a> FaceJob<'a> {
                     singular: &smaller,
                     ..pts
                 };
-                if let Ok(tris) = connect::triangulate_surface(&retry, segments, directed) {
+                if let Ok(tris) =
+                    with_fixed(connect::triangulate_surface(&retry, segments, directed))
+                {
                     return Ok((tris, Some(Fallback::SmallerCaps(radius, first.to_string()))));
                 }
             }
         }
         // the face as a graph over one plane, where it is one: valid at any
         // spacing, and checked like the rest
-        match connect::triangulate_projected(&pts, segments, directed) {
-            Ok(tris) => Ok((tris, Some(Fallback::InPlane(first.to_string())))),
-            Err(_) => Err(first.into()),
+        if let Ok(tris) = with_fixed(connect::triangulate_projected(&pts, segments, directed)) {
+            return Ok((tris, Some(Fallback::InPlane(first.to_string()))));
         }
+        // a closed face (no boundary) that is convex: its bubbles' hull
+        if segments.is_empty() {
+            if let Ok(tris) = with_fixed(connect::triangulate_hull(&pts)) {
+                return Ok((tris, Some(Fallback::Hull(first.to_string()))));
+            }
+        }
+        Err(first.into())
     }
 
     /// Whether the face is rebuilt from the lattice conformal to its spacing

@@ -944,6 +944,7 @@ fn build_face(
         model,
         far,
         format!("#{}", f.id),
+        sg.sphere,
     )
     .map_err(|m| t.err(f.id, format!("{m} (surface #{})", f.surface)))
 }

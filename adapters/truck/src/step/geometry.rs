@@ -126,6 +126,10 @@ enum Knots<'p> {
 pub struct SurfGeom {
     pub surface: Arc<dyn Surface>,
     pub planar: bool,
+    /// Centre and radius when the surface is a sphere (a face that is the
+    /// sphere minus holes is built on the sphere turned, see
+    /// `face_build::face_from_loops_within`).
+    pub sphere: Option<(P3, f64)>,
 }
 
 /// Converts geometry with the file's context: its angle unit and extent.
@@ -791,6 +795,7 @@ impl<'a> Geo<'a> {
             Ok(Some(SurfGeom {
                 surface: s,
                 planar: false,
+                sphere: None,
             }))
         };
         let grown = |r: f64, what: &str| -> Result<f64, StepError> {
@@ -813,6 +818,7 @@ impl<'a> Geo<'a> {
                     e2: pl.y,
                 }),
                 planar: true,
+                sphere: None,
             }));
         }
         if e.is("CYLINDRICAL_SURFACE") {
@@ -848,7 +854,11 @@ impl<'a> Geo<'a> {
             let a = self.t.args(id, &["SPHERICAL_SURFACE"], 3)?;
             let pl = self.placement(self.t.r(id, &a[1], "position")?)?;
             let r = grown(self.positive(id, &a[2], "radius")?, "radius")?;
-            return curved(Arc::new(Sphere::with_frame(frame(&pl)?, r).map_err(bad)?));
+            return Ok(Some(SurfGeom {
+                surface: Arc::new(Sphere::with_frame(frame(&pl)?, r).map_err(bad)?),
+                planar: false,
+                sphere: Some((pl.o, r)),
+            }));
         }
         if e.is("TOROIDAL_SURFACE") {
             let a = self.t.args(id, &["TOROIDAL_SURFACE"], 4)?;
@@ -893,6 +903,7 @@ impl<'a> Geo<'a> {
             Ok(SurfGeom {
                 surface: s,
                 planar: false,
+                sphere: None,
             })
         };
         if let Some(sg) = self.elementary(id, 0.0)? {
