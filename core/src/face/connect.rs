@@ -306,20 +306,34 @@ pub fn triangulate_surface(
     Ok(tris)
 }
 
-/// Triangulation of a closed face without boundary (a whole sphere, a
-/// closed convex patch) as the convex hull of its points: the boundary of
-/// their 3D Delaunay tetrahedralization. On a sphere the hull is the
-/// Delaunay triangulation on the surface itself (a hull facet's
-/// circumcircle is where its plane cuts the sphere, empty of points), so
-/// it needs no parametrization: the fallback of a sphere so small against
-/// the spacing that every bubble lies in a pole's cap and the (u,v)
-/// triangulation is empty (a spherical void of radius d/4).
+/// A hull edge longer than this many spacings (of its ends, averaged)
+/// refuses [`triangulate_hull`]: bubbles a spacing apart on a sphere give
+/// edges of about one spacing; a dimple closed by a pyramid from its pole
+/// had 1.9.
+const HULL_LONG_EDGE: f64 = 1.5;
+
+/// Triangulation of a convex face as the convex hull of its points (the
+/// boundary of their 3D Delaunay tetrahedralization), less the hull's
+/// triangles over its holes: a whole sphere, or a sphere less a small cap.
+/// On a sphere the hull is the Delaunay triangulation on the surface
+/// itself (a hull facet's circumcircle is where its plane cuts the sphere,
+/// empty of points), so it needs no parametrization: the fallback of a
+/// sphere so small against the spacing that every bubble lies in a pole's
+/// cap and the (u,v) triangulation is empty (a spherical void of radius
+/// d/4).
 ///
-/// Refused (an error) unless every point is a corner of the hull and every
+/// `segments` must be edges of the hull; `boundary` (directed with the
+/// face on their left, seen along the normal) tells the face's triangles
+/// from the holes' as [`triangulate`] does, by a flood from them. Refused
+/// (an error) unless every point is a corner of a kept triangle, every
 /// hull triangle faces the way of the surface normals at its corners (the
-/// face is convex as sampled). Triangles come out oriented along the
-/// normal.
-pub fn triangulate_hull(pts: &SurfacePoints<'_>) -> Result<Vec<[usize; 3]>, ConnectError> {
+/// face is convex as sampled), and every boundary segment lies in exactly
+/// one kept triangle. Triangles come out oriented along the normal.
+pub fn triangulate_hull(
+    pts: &SurfacePoints<'_>,
+    segments: &[[usize; 2]],
+    boundary: &[[usize; 2]],
+) -> Result<Vec<[usize; 3]>, ConnectError> {
     let n = pts.pos.len();
     let coords: Vec<[f64; 3]> = pts.pos.iter().map(|p| [p.x, p.y, p.z]).collect();
     let t = bubblemesh_delaunay::tetrahedralize(&coords)
@@ -364,13 +378,110 @@ pub fn triangulate_hull(pts: &SurfacePoints<'_>) -> Result<Vec<[usize; 3]>, Conn
         })
     };
     let (outward, inward) = (sides(1.0), sides(-1.0));
-    match (outward, inward) {
-        (true, _) => Ok(tris),
-        (false, true) => Ok(tris.into_iter().map(|[a, b, c]| [a, c, b]).collect()),
-        _ => Err(ConnectError::Coarse(
-            "the hull of its points does not follow the surface (the face is not convex)".into(),
-        )),
+    // a hull edge far longer than the spacing spans a part of the face
+    // no bubble samples (a deep cap closed by a pyramid from its pole): a
+    // finer spacing is the cure, not the hull
+    if let Some(t) = tris.iter().find(|t| {
+        (0..3).any(|k| {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            (pts.pos[a] - pts.pos[b]).norm() > HULL_LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
+        })
+    }) {
+        let p = pts.pos[t[0]];
+        return Err(ConnectError::Coarse(format!(
+            "its hull has an edge longer than {HULL_LONG_EDGE} spacings near ({}, {}, {})",
+            p.x, p.y, p.z
+        )));
     }
+    let tris = match (outward, inward) {
+        (true, _) => tris,
+        (false, true) => tris.into_iter().map(|[a, b, c]| [a, c, b]).collect(),
+        _ => {
+            return Err(ConnectError::Coarse(
+                "the hull of its points does not follow the surface (the face is not convex)"
+                    .into(),
+            ))
+        }
+    };
+    if boundary.is_empty() && segments.is_empty() {
+        return Ok(tris);
+    }
+    // the face's triangles: those holding a boundary segment in their
+    // order, and those reached from them across other edges
+    let key = |a: usize, b: usize| (a.min(b), a.max(b));
+    let bset: HashSet<(usize, usize)> = boundary.iter().map(|s| (s[0], s[1])).collect();
+    let cut: HashSet<(usize, usize)> = boundary.iter().map(|s| key(s[0], s[1])).collect();
+    let mut by_edge: HashMap<(usize, usize), Vec<usize>> = HashMap::new();
+    let mut label = vec![0i8; tris.len()];
+    let mut stack = Vec::new();
+    for (ti, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            by_edge.entry(key(a, b)).or_default().push(ti);
+            if bset.contains(&(a, b)) {
+                label[ti] = 1;
+            } else if label[ti] == 0 && bset.contains(&(b, a)) {
+                label[ti] = -1;
+            }
+        }
+        if label[ti] != 0 {
+            stack.push(ti);
+        }
+    }
+    while let Some(ti) = stack.pop() {
+        let t = tris[ti];
+        for k in 0..3 {
+            let e = key(t[k], t[(k + 1) % 3]);
+            if cut.contains(&e) {
+                continue;
+            }
+            for &o in &by_edge[&e] {
+                if label[o] == 0 {
+                    label[o] = label[ti];
+                    stack.push(o);
+                }
+            }
+        }
+    }
+    if label.contains(&0) {
+        return Err(ConnectError::Coarse(
+            "a part of its hull touches no boundary segment".into(),
+        ));
+    }
+    let kept: Vec<[usize; 3]> = tris
+        .iter()
+        .zip(&label)
+        .filter(|(_, &l)| l > 0)
+        .map(|(t, _)| *t)
+        .collect();
+    if let Some(s) = first_unclosed(&kept, boundary) {
+        let p = pts.pos[s[0]];
+        return Err(ConnectError::Coarse(format!(
+            "its boundary segment at ({}, {}, {}) is no edge of its hull",
+            p.x, p.y, p.z
+        )));
+    }
+    let edges: HashSet<(usize, usize)> = kept
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| key(t[k], t[(k + 1) % 3])))
+        .collect();
+    if segments.iter().any(|s| !edges.contains(&key(s[0], s[1]))) {
+        return Err(ConnectError::Coarse(
+            "an embedded edge is no edge of its hull".into(),
+        ));
+    }
+    let mut corner = vec![false; n];
+    for t in &kept {
+        for &v in t {
+            corner[v] = true;
+        }
+    }
+    if corner.contains(&false) {
+        return Err(ConnectError::Coarse(
+            "a point is left out of its hull's face triangles".into(),
+        ));
+    }
+    Ok(kept)
 }
 
 /// The least cosine between a point's surface normal and the face's mean
@@ -1050,7 +1161,7 @@ mod classification {
             origin: [0.0, 0.0],
             scale: [1.0, 1.0],
         };
-        triangulate_hull(&pts).unwrap_or_default()
+        triangulate_hull(&pts, &[], &[]).unwrap_or_default()
     }
 
     /// A sphere sampled by a dozen points (a void far below the spacing):
@@ -1112,5 +1223,64 @@ mod classification {
         pos.push(crate::geom::P3::new(0.2, 0.2, 0.2));
         normal.push(v(1.0, 1.0, 1.0).normalize());
         assert!(closed(&pos, &normal).is_empty());
+    }
+
+    /// A sphere less a cap (a void cut by a larger one), sampled coarsely:
+    /// the hull's triangles over the hole (its lid, all corners on the
+    /// rim) are left out, every rim segment lies in one kept triangle, and
+    /// every point is a corner.
+    #[test]
+    fn a_sphere_less_a_cap_is_its_hull_less_the_lid() {
+        let (r, m) = (1.0, 6);
+        let rim_z: f64 = 0.6;
+        let rho = (r * r - rim_z * rim_z).sqrt();
+        let tau = std::f64::consts::TAU;
+        let mut pos = Vec::new();
+        // the rim, clockwise seen from +z (the face, below it, on its left
+        // seen from outside)
+        for k in 0..m {
+            let a = -tau * k as f64 / m as f64;
+            pos.push(crate::geom::P3::new(rho * a.cos(), rho * a.sin(), rim_z));
+        }
+        // two rings below and the south pole
+        for (z, n) in [(0.0, 7), (-0.7, 5)] {
+            let rr: f64 = (r * r - z * z).sqrt();
+            for k in 0..n {
+                let a = tau * (k as f64 + 0.3) / n as f64;
+                pos.push(crate::geom::P3::new(rr * a.cos(), rr * a.sin(), z));
+            }
+        }
+        pos.push(crate::geom::P3::new(0.0, 0.0, -r));
+        let normal: Vec<crate::geom::V3> = pos.iter().map(|p| p.coords / r).collect();
+        let boundary: Vec<[usize; 2]> = (0..m).map(|k| [k, (k + 1) % m]).collect();
+        let n = pos.len();
+        let (uv, d, singular) = (vec![[0.0, 0.0]; n], vec![1.0; n], vec![false; n]);
+        let pts = SurfacePoints {
+            uv: &uv,
+            pos: &pos,
+            normal: &normal,
+            d: &d,
+            singular: &singular,
+            periods: [None, None],
+            origin: [0.0, 0.0],
+            scale: [1.0, 1.0],
+        };
+        let t = triangulate_hull(&pts, &boundary, &boundary).expect("hull");
+        assert!(
+            t.iter().all(|t| !t.iter().all(|&v| v < m)),
+            "a lid triangle was kept"
+        );
+        assert!(first_unclosed(&t, &boundary).is_none());
+        let mut used = vec![false; n];
+        t.iter().flatten().for_each(|&v| used[v] = true);
+        assert!(used.iter().all(|&u| u));
+        // Euler: a disc (V − E + F = 1)
+        let mut edges = HashSet::new();
+        for tri in &t {
+            for k in 0..3 {
+                edges.insert((tri[k].min(tri[(k + 1) % 3]), tri[k].max(tri[(k + 1) % 3])));
+            }
+        }
+        assert_eq!(n as i64 - edges.len() as i64 + t.len() as i64, 1);
     }
 }

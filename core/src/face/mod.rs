@@ -140,9 +140,9 @@ pub struct FaceReport {
     /// radius used, in spacings, and the error with the usual caps.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub smaller_caps: Option<(f64, String)>,
-    /// Why a closed face (no boundary) was connected as the convex hull of
-    /// its bubbles ([`connect::triangulate_hull`]): the error of the (u,v)
-    /// connection at this spacing.
+    /// Why a convex face (a small sphere) was connected as the convex hull
+    /// of its bubbles ([`connect::triangulate_hull`]): the error of the
+    /// (u,v) connection at this spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub connected_as_hull: Option<String>,
 }
@@ -154,7 +154,7 @@ enum Fallback {
     SmallerCaps(f64, String),
     /// The whole face in its mean tangent plane.
     InPlane(String),
-    /// A closed face as the convex hull of its bubbles.
+    /// A convex face as the convex hull of its bubbles.
     Hull(String),
 }
 
@@ -1029,11 +1029,10 @@ impl<'a> FaceJob<'a> {
         if let Ok(tris) = with_fixed(connect::triangulate_projected(&pts, segments, directed)) {
             return Ok((tris, Some(Fallback::InPlane(first.to_string()))));
         }
-        // a closed face (no boundary) that is convex: its bubbles' hull
-        if segments.is_empty() {
-            if let Ok(tris) = with_fixed(connect::triangulate_hull(&pts)) {
-                return Ok((tris, Some(Fallback::Hull(first.to_string()))));
-            }
+        // a convex face (a small sphere, whole or less a cap): its
+        // bubbles' hull less the hull over its holes
+        if let Ok(tris) = with_fixed(connect::triangulate_hull(&pts, segments, directed)) {
+            return Ok((tris, Some(Fallback::Hull(first.to_string()))));
         }
         Err(first.into())
     }
