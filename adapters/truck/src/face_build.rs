@@ -16,6 +16,21 @@ fn errs(m: impl Into<String>) -> String {
     m.into()
 }
 
+/// Whether a face's loops are known to keep the face on their left (seen
+/// from the face's normal), which tells a face outside all of its loops (a
+/// sphere less a cap) from one inside them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum LoopSense {
+    /// Not known (the truck modeling path): the largest loop is the outer
+    /// one.
+    Unknown,
+    /// Known (STEP: loops with the face on their left, `same_sense`
+    /// relating the face's normal to the surface's); `sphere` (centre,
+    /// radius) when the surface is a sphere, which a face outside its
+    /// loops is built on turned into its largest loop.
+    Oriented { sphere: Option<(P3, f64)> },
+}
+
 /// The face on `base` bounded by `loops` (model edges, each loop closed,
 /// oriented with the face on its left seen from the face's normal, which is
 /// S_u × S_v of `base` when `same_sense`), with `embedded` vertices (poles,
@@ -43,7 +58,7 @@ pub(crate) fn face_from_loops(
         model,
         1e-3 * extent,
         name,
-        None,
+        LoopSense::Unknown,
     )
     .map(|(f, _)| f)
 }
@@ -118,7 +133,7 @@ pub(crate) fn face_from_loops_within(
     model: &Model,
     far: f64,
     name: String,
-    sphere: Option<(P3, f64)>,
+    sense: LoopSense,
 ) -> Result<(Face, f64), String> {
     // boundary samples in the base surface's (u,v), each loop unwrapped
     let mut hint: Option<[f64; 2]> = None;
@@ -216,7 +231,16 @@ pub(crate) fn face_from_loops_within(
     // vector area): the loop then wraps around the axis and the face runs
     // from it to the far pole like any cap. Other closed surfaces are
     // refused rather than meshed as the wrong side.
-    if keep == [false, false] && !loops_uv.is_empty() && periods.iter().any(|p| p.is_some()) {
+    let oriented = match sense {
+        LoopSense::Unknown => None,
+        LoopSense::Oriented { sphere } => Some(sphere),
+    };
+    if let (Some(sphere), [false, false], false, true) = (
+        oriented,
+        keep,
+        loops_uv.is_empty(),
+        periods.iter().any(|p| p.is_some()),
+    ) {
         let sense = if same_sense { 1.0 } else { -1.0 };
         let largest = (0..loops_uv.len())
             .max_by(|&i, &j| area(&loops_uv[i]).total_cmp(&area(&loops_uv[j])))
@@ -250,7 +274,7 @@ pub(crate) fn face_from_loops_within(
                 model,
                 far,
                 name,
-                None,
+                LoopSense::Oriented { sphere: None },
             );
         }
     }

@@ -944,7 +944,7 @@ fn build_face(
         model,
         far,
         format!("#{}", f.id),
-        sg.sphere,
+        crate::face_build::LoopSense::Oriented { sphere: sg.sphere },
     )
     .map_err(|m| t.err(f.id, format!("{m} (surface #{})", f.surface)))
 }
