@@ -352,13 +352,7 @@ pub fn triangulate_hull(
             }
         }
     }
-    let mut used = vec![false; n];
-    for t in &tris {
-        for &v in t {
-            used[v] = true;
-        }
-    }
-    if let Some(i) = used.iter().position(|u| !u) {
+    if let Some(i) = corners(n, &tris).iter().position(|u| !u) {
         let p = pts.pos[i];
         return Err(ConnectError::Coarse(format!(
             "the face is not convex: its point ({}, {}, {}) is inside the hull of the others",
@@ -470,13 +464,7 @@ pub fn triangulate_hull(
             "an embedded edge is no edge of its hull".into(),
         ));
     }
-    let mut corner = vec![false; n];
-    for t in &kept {
-        for &v in t {
-            corner[v] = true;
-        }
-    }
-    if corner.contains(&false) {
+    if corners(n, &kept).contains(&false) {
         return Err(ConnectError::Coarse(
             "a point is left out of its hull's face triangles".into(),
         ));
@@ -616,12 +604,7 @@ fn fill_caps(
     // orient the (u,v) triangles along the normal so hole sides are known
     orient_along_normal(pts, tris);
     let hole = hole_edges(tris, boundary);
-    let mut used = vec![false; n];
-    for t in tris.iter() {
-        for &v in t {
-            used[v] = true;
-        }
-    }
+    let used = corners(n, tris);
     let orphans: Vec<usize> = (0..n).filter(|&i| !used[i]).collect();
     if hole.is_empty() {
         return if orphans.is_empty() {
@@ -835,6 +818,17 @@ fn tangent_cap(
         )));
     }
     Ok(cap)
+}
+
+/// Per point of `n`, whether it is a corner of one of `tris`.
+fn corners(n: usize, tris: &[[usize; 3]]) -> Vec<bool> {
+    let mut used = vec![false; n];
+    for t in tris {
+        for &v in t {
+            used[v] = true;
+        }
+    }
+    used
 }
 
 /// The first of `segments` that is not an edge of exactly one of `tris`
@@ -1146,9 +1140,14 @@ mod classification {
         assert!((area - 8.0).abs() < 1e-12, "area {area}");
     }
 
-    /// Points of a closed face as `SurfacePoints` (the (u,v) are not used
-    /// by the hull).
-    fn closed(pos: &[crate::geom::P3], normal: &[crate::geom::V3]) -> Vec<[usize; 3]> {
+    /// [`triangulate_hull`] of points at `pos` with surface normals
+    /// `normal`, a spacing of 1 (the (u,v) are not used by the hull), the
+    /// directed `boundary` as its only segments.
+    fn hull_of(
+        pos: &[crate::geom::P3],
+        normal: &[crate::geom::V3],
+        boundary: &[[usize; 2]],
+    ) -> Result<Vec<[usize; 3]>, ConnectError> {
         let n = pos.len();
         let (uv, d, singular) = (vec![[0.0, 0.0]; n], vec![1.0; n], vec![false; n]);
         let pts = SurfacePoints {
@@ -1161,7 +1160,12 @@ mod classification {
             origin: [0.0, 0.0],
             scale: [1.0, 1.0],
         };
-        triangulate_hull(&pts, &[], &[]).unwrap_or_default()
+        triangulate_hull(&pts, boundary, boundary)
+    }
+
+    /// The hull of a closed face's points (none when refused).
+    fn closed(pos: &[crate::geom::P3], normal: &[crate::geom::V3]) -> Vec<[usize; 3]> {
+        hull_of(pos, normal, &[]).unwrap_or_default()
     }
 
     /// A sphere sampled by a dozen points (a void far below the spacing):
@@ -1254,18 +1258,7 @@ mod classification {
         let normal: Vec<crate::geom::V3> = pos.iter().map(|p| p.coords / r).collect();
         let boundary: Vec<[usize; 2]> = (0..m).map(|k| [k, (k + 1) % m]).collect();
         let n = pos.len();
-        let (uv, d, singular) = (vec![[0.0, 0.0]; n], vec![1.0; n], vec![false; n]);
-        let pts = SurfacePoints {
-            uv: &uv,
-            pos: &pos,
-            normal: &normal,
-            d: &d,
-            singular: &singular,
-            periods: [None, None],
-            origin: [0.0, 0.0],
-            scale: [1.0, 1.0],
-        };
-        let t = triangulate_hull(&pts, &boundary, &boundary).expect("hull");
+        let t = hull_of(&pos, &normal, &boundary).expect("hull");
         assert!(
             t.iter().all(|t| !t.iter().all(|&v| v < m)),
             "a lid triangle was kept"
