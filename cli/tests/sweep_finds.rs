@@ -45,6 +45,18 @@ fn run(name: &str, d: f64, dim: u8, out: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// The message of a run that must be refused (exit status not 0, no
+/// output file left).
+fn refusal(name: &str, d: f64, dim: u8) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.msh");
+    let o = run(name, d, dim, &out);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "{name} at {d} was meshed: {err}");
+    assert!(!out.exists(), "a refused run left {out:?}");
+    err
+}
+
 /// Triangle area per face entity id.
 fn face_areas(m: &Mesh) -> HashMap<u32, f64> {
     let mut a: HashMap<u32, f64> = HashMap::new();
@@ -165,11 +177,8 @@ fn an_open_shell_is_warned_about_and_refused_as_tetrahedra() {
             && err.contains("edge 42 (\"#1780\")"),
         "{err}"
     );
-    std::fs::remove_file(&out).unwrap();
-    let o = run("open_shell.step", 1.5, 3, &out);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("not closed"), "{err}");
-    assert!(!out.exists(), "a refused run left {out:?}");
+    let err = refusal("open_shell.step", 1.5, 3);
+    assert!(err.contains("not closed"), "{err}");
 }
 
 /// A void sphere less two holes (another void and a hole through it): on
@@ -179,14 +188,9 @@ fn an_open_shell_is_warned_about_and_refused_as_tetrahedra() {
 /// face and why, and nothing is written.
 #[test]
 fn a_sphere_less_two_holes_is_refused_not_meshed_wrong() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("m.msh");
-    let o = run("sphere_less_two_holes.step", 3.862, 2, &out);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "meshed: {err}");
+    let err = refusal("sphere_less_two_holes.step", 3.862, 2);
     assert!(
         err.contains("#1101") && err.contains("supported on a sphere with one hole only"),
         "{err}"
     );
-    assert!(!out.exists(), "a refused run left {out:?}");
 }
