@@ -5,10 +5,10 @@
 //! surface, the right area, and the requested spacing.
 
 use std::collections::HashMap;
-use std::path::Path;
-use std::process::Command;
 
 use bubblemesh_core::{Mesh, P3};
+
+mod support;
 
 const TAU: f64 = std::f64::consts::TAU;
 
@@ -18,28 +18,9 @@ fn mesh_example(name: &str, size: &str) -> Mesh {
 
 fn mesh_example_with(name: &str, size: &str, extra: &[&str]) -> Mesh {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("m.msh");
-    let input = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../examples")
-        .join(name);
-    let o = Command::new(env!("CARGO_BIN_EXE_bubblemesh"))
-        .args([
-            "mesh",
-            input.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--size",
-            size,
-        ])
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "{name}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    bubblemesh_io::read(&out).unwrap()
+    let o = support::mesh_in(dir.path(), &support::example(name), size, extra);
+    assert!(o.status.success(), "{name}: {}", support::stderr(&o));
+    bubblemesh_io::read(&dir.path().join("m.msh")).unwrap()
 }
 
 struct Checked {
@@ -292,15 +273,16 @@ fn mesh_domain_with_report(surface: &str) -> (Mesh, serde_json::Value) {
         format!("format = \"bubblemesh-domain 1\"\n[[surface]]\n{surface}\n"),
     )
     .unwrap();
-    let (out, report) = (dir.path().join("m.msh"), dir.path().join("r.json"));
-    let o = Command::new(env!("CARGO_BIN_EXE_bubblemesh"))
-        .args(["mesh", input.to_str().unwrap(), "-o", out.to_str().unwrap()])
-        .args(["--size", "1", "--report", report.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = dir.path().join("r.json");
+    let o = support::mesh_in(
+        dir.path(),
+        &input,
+        "1",
+        &["--report", report.to_str().unwrap()],
+    );
+    assert!(o.status.success(), "{}", support::stderr(&o));
     let r = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-    (bubblemesh_io::read(&out).unwrap(), r)
+    (bubblemesh_io::read(&dir.path().join("m.msh")).unwrap(), r)
 }
 
 /// A tube eight times longer than its diameter, meshed at twice its

@@ -7,9 +7,10 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use bubblemesh_core::Mesh;
+
+mod support;
 
 fn part(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -19,30 +20,15 @@ fn part(name: &str) -> PathBuf {
 
 fn mesh(name: &str, d: f64, dim: u8) -> Mesh {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("m.msh");
-    let o = run(name, d, dim, &out);
-    assert!(
-        o.status.success(),
-        "{name} at {d}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    bubblemesh_io::read(&out).unwrap()
+    let o = run(name, d, dim, dir.path());
+    assert!(o.status.success(), "{name} at {d}: {}", support::stderr(&o));
+    bubblemesh_io::read(&dir.path().join("m.msh")).unwrap()
 }
 
-fn run(name: &str, d: f64, dim: u8, out: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_bubblemesh"))
-        .args(["mesh", part(name).to_str().unwrap(), "-o"])
-        .arg(out)
-        .args([
-            "--size",
-            &d.to_string(),
-            "--dim",
-            &dim.to_string(),
-            "--unit",
-            "mm",
-        ])
-        .output()
-        .unwrap()
+/// Meshes the part as the sweep did (`--unit mm`) into `dir`/m.msh.
+fn run(name: &str, d: f64, dim: u8, dir: &Path) -> std::process::Output {
+    let (d, dim) = (d.to_string(), dim.to_string());
+    support::mesh_in(dir, &part(name), &d, &["--dim", &dim, "--unit", "mm"])
 }
 
 /// The message of a run that must be refused (exit status not 0, no
@@ -50,7 +36,7 @@ fn run(name: &str, d: f64, dim: u8, out: &Path) -> std::process::Output {
 fn refusal(name: &str, d: f64, dim: u8) -> String {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.msh");
-    let o = run(name, d, dim, &out);
+    let o = run(name, d, dim, dir.path());
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(!o.status.success(), "{name} at {d} was meshed: {err}");
     assert!(!out.exists(), "a refused run left {out:?}");
@@ -168,8 +154,7 @@ fn spherical_voids_far_below_the_spacing_are_meshed() {
 #[test]
 fn an_open_shell_is_warned_about_and_refused_as_tetrahedra() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("m.msh");
-    let o = run("open_shell.step", 1.2, 2, &out);
+    let o = run("open_shell.step", 1.2, 2, dir.path());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(

@@ -1,6 +1,6 @@
 //! Helpers the command-line test files share: the built binary, the
-//! repository's example inputs and fixtures, a run's output as text, and a
-//! mesh run's report.
+//! repository's example inputs and fixtures, a run's output as text, a
+//! mesh run into a folder and a mesh run's report.
 #![allow(dead_code)] // each test file uses a part
 
 use std::path::{Path, PathBuf};
@@ -25,11 +25,10 @@ pub fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// `bubblemesh mesh input -o <tmp>.msh --size size --report <tmp>.json
-/// extra…`, which must succeed; its report.
-pub fn mesh_report(input: &Path, size: &str, extra: &[&str]) -> serde_json::Value {
-    let dir = tempfile::tempdir().unwrap();
-    let (out, rep) = (dir.path().join("m.msh"), dir.path().join("r.json"));
+/// `bubblemesh mesh input -o <dir>/m.msh --size size extra…` to the end
+/// (the mesh, if written, is `dir.join("m.msh")`).
+pub fn mesh_in(dir: &Path, input: &Path, size: &str, extra: &[&str]) -> Output {
+    let out = dir.join("m.msh");
     let mut args = vec![
         "mesh",
         input.to_str().unwrap(),
@@ -37,11 +36,19 @@ pub fn mesh_report(input: &Path, size: &str, extra: &[&str]) -> serde_json::Valu
         out.to_str().unwrap(),
         "--size",
         size,
-        "--report",
-        rep.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
-    let o = run(&args);
+    run(&args)
+}
+
+/// `bubblemesh mesh input -o <tmp>.msh --size size --report <tmp>.json
+/// extra…`, which must succeed; its report.
+pub fn mesh_report(input: &Path, size: &str, extra: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let rep = dir.path().join("r.json");
+    let mut args = vec!["--report", rep.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let o = mesh_in(dir.path(), input, size, &args);
     assert!(o.status.success(), "{}", stderr(&o));
     serde_json::from_str(&std::fs::read_to_string(&rep).unwrap()).unwrap()
 }
