@@ -145,6 +145,11 @@ pub struct FaceReport {
     /// (u,v) connection at this spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub connected_as_hull: Option<String>,
+    /// Why the face was connected with caps only at the singular points it
+    /// reaches (none at a pole its parameter box stops short of, inside a
+    /// hole around it): the error with caps at every singular point.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub caps_only_where_reached: Option<String>,
 }
 
 /// How a curved face was connected where its (u,v) connection with caps of
@@ -156,6 +161,8 @@ enum Fallback {
     InPlane(String),
     /// A convex face as the convex hull of its bubbles.
     Hull(String),
+    /// Caps only at the singular points the face reaches.
+    CapsWhereReached(String),
 }
 
 impl FaceReport {
@@ -165,11 +172,13 @@ impl FaceReport {
             self.connected_in_plane,
             self.smaller_caps,
             self.connected_as_hull,
+            self.caps_only_where_reached,
         ) = match fallback {
-            None => (None, None, None),
-            Some(Fallback::SmallerCaps(r, why)) => (None, Some((r, why)), None),
-            Some(Fallback::InPlane(why)) => (Some(why), None, None),
-            Some(Fallback::Hull(why)) => (None, None, Some(why)),
+            None => (None, None, None, None),
+            Some(Fallback::SmallerCaps(r, why)) => (None, Some((r, why)), None, None),
+            Some(Fallback::InPlane(why)) => (Some(why), None, None, None),
+            Some(Fallback::Hull(why)) => (None, None, Some(why), None),
+            Some(Fallback::CapsWhereReached(why)) => (None, None, None, Some(why)),
         };
     }
 }
@@ -539,6 +548,7 @@ impl<'a> FaceJob<'a> {
                         (id, pcurve_uv(u.edge, id, at_end))
                     })
                     .collect();
+                self.check_steps_around_poles(u, &c, mesh, &with_uv, &mut b)?;
                 if let Some(&(last, _)) = ids.last() {
                     if last != c[0] {
                         return Err(MeshError::Invalid(format!(
@@ -580,6 +590,143 @@ impl<'a> FaceJob<'a> {
             self.add_fixed(&mut b, mesh, v, None)?;
         }
         Ok(b)
+    }
+
+    /// Refuses an edge's chain of nodes `chain` (as the loop uses it) when
+    /// two consecutive nodes are so far apart, around a pole of a periodic
+    /// surface, that their (u,v) cannot tell which way the edge runs between
+    /// them: the region and the connection join boundary nodes by the
+    /// nearer of a periodic coordinate's two ways round, and a loop passing
+    /// close to a pole turns u by nearly a period within a short arc (a
+    /// hole around a sphere's pole, 0.1 mm off it, with seven nodes per
+    /// turn was read as not going round it, and the face was meshed as its
+    /// hole: rp_4_009 of the random parts). The edge's own curve decides,
+    /// walked between the nodes with the (u,v) steps bisected until each
+    /// turns less than an eighth of a period; a step that turns more than
+    /// 0.48 of a period, or the other way than the nearer one, is a
+    /// connection error (the face is meshed again finer, where more nodes
+    /// make the steps short). `with_uv` holds the pcurve's (u,v) where
+    /// known; the others are found as [`Self::add_fixed`] does.
+    fn check_steps_around_poles(
+        &self,
+        u: &crate::model::EdgeUse,
+        chain: &[u32],
+        mesh: &Mesh,
+        with_uv: &[(u32, Option<[f64; 2]>)],
+        b: &mut Boundary,
+    ) -> Result<(), MeshError> {
+        let surface = self.surface;
+        let periods = surface.periods();
+        if periods.iter().all(|p| p.is_none()) || chain.len() < 2 {
+            return Ok(());
+        }
+        let e = &self.inputs.model.edges[u.edge as usize];
+        let m = chain.len();
+        // the edge's parameter at the k-th node of the chain
+        let t_of = |k: usize| {
+            if k == 0 {
+                if u.forward {
+                    e.t0
+                } else {
+                    e.t1
+                }
+            } else if k + 1 == m {
+                if u.forward {
+                    e.t1
+                } else {
+                    e.t0
+                }
+            } else {
+                mesh.nodes[chain[k] as usize].params[0]
+            }
+        };
+        // the wrapped difference b − a in each periodic direction
+        let step = |a: [f64; 2], b: [f64; 2]| -> [f64; 2] {
+            let mut d = [0.0; 2];
+            for c in 0..2 {
+                if let Some(p) = periods[c] {
+                    let x = b[c] - a[c];
+                    d[c] = x - p * (x / p).round();
+                }
+            }
+            d
+        };
+        let far = |d: [f64; 2], frac: f64| {
+            (0..2).any(|c| periods[c].is_some_and(|p| d[c].abs() > frac * p))
+        };
+        let mut uv_prev: Option<[f64; 2]> = None;
+        for k in 0..m {
+            let uv = self.add_fixed(b, mesh, chain[k], with_uv[k].1)?;
+            let uv = b.uv[uv];
+            let Some(a) = uv_prev.replace(uv) else {
+                continue;
+            };
+            let near = step(a, uv);
+            if !far(near, 0.25) {
+                continue;
+            }
+            // walk the curve from node k − 1 to node k
+            let (t0, t1) = (t_of(k - 1), t_of(k));
+            let invert = |t: f64, hint: [f64; 2]| {
+                surface
+                    .inverse(&e.curve.point(t), Some(hint))
+                    .ok_or_else(|| {
+                        let p = e.curve.point(t);
+                        MeshError::Invalid(format!(
+                            "boundary point ({}, {}, {}) cannot be mapped to the surface's (u,v)",
+                            p.x, p.y, p.z
+                        ))
+                    })
+            };
+            const K: usize = 8;
+            let mut samples: Vec<(f64, [f64; 2])> = vec![(0.0, a)];
+            for j in 1..K {
+                let s = j as f64 / K as f64;
+                let hint = samples[j - 1].1;
+                samples.push((s, invert(t0 + (t1 - t0) * s, hint)?));
+            }
+            samples.push((1.0, uv));
+            let mut j = 0;
+            while j + 1 < samples.len() && samples.len() < 64 * K {
+                let ((s0, p0), (s1, p1)) = (samples[j], samples[j + 1]);
+                if s1 - s0 > 1e-9 && far(step(p0, p1), 0.125) {
+                    let sm = 0.5 * (s0 + s1);
+                    let q = invert(t0 + (t1 - t0) * sm, p0)?;
+                    samples.insert(j + 1, (sm, q));
+                } else {
+                    j += 1;
+                }
+            }
+            let mut walked = [0.0; 2];
+            for w in samples.windows(2) {
+                let d = step(w[0].1, w[1].1);
+                walked = [walked[0] + d[0], walked[1] + d[1]];
+            }
+            let wrong_way =
+                (0..2).any(|c| periods[c].is_some_and(|p| (walked[c] - near[c]).abs() > 1e-6 * p));
+            if wrong_way || far(walked, 0.48) {
+                let (pa, pb) = (
+                    mesh.nodes[chain[k - 1] as usize].pos,
+                    mesh.nodes[chain[k] as usize].pos,
+                );
+                return Err(MeshError::Connect(connect::ConnectError::Coarse(format!(
+                    "its boundary turns around a pole of its surface between the nodes at \
+                     ({}, {}, {}) and ({}, {}, {}) on edge {} ({:.2} of a turn): too few nodes \
+                     there to tell which way it goes",
+                    pa.x,
+                    pa.y,
+                    pa.z,
+                    pb.x,
+                    pb.y,
+                    pb.z,
+                    u.edge,
+                    (0..2)
+                        .filter_map(|c| periods[c].map(|p| walked[c].abs() / p))
+                        .fold(0.0, f64::max)
+                ))));
+            }
+        }
+        Ok(())
     }
 
     /// The node ids along an edge as the loop uses it.
@@ -954,7 +1101,7 @@ impl<'a> FaceJob<'a> {
             on_segment[s[0]] = true;
             on_segment[s[1]] = true;
         }
-        let singular_within = |radius: f64| -> Vec<bool> {
+        let singular_near = |poles: &[P3], radius: f64| -> Vec<bool> {
             (0..sys.n())
                 .map(|i| {
                     !on_segment[i]
@@ -964,6 +1111,7 @@ impl<'a> FaceJob<'a> {
                 })
                 .collect()
         };
+        let singular_within = |radius: f64| singular_near(&poles, radius);
         let singular = singular_within(PRM.cap_radius);
         let pts = connect::SurfacePoints {
             uv: &sys.params,
@@ -983,27 +1131,8 @@ impl<'a> FaceJob<'a> {
                     | connect::ConnectError::Duplicate(..)
             )
         };
-        // a fixed bubble (an embedded vertex near a pole the cap leaves out)
-        // must be a corner: a cap that drops one is a coarse connection
-        let nf = sys.n_fixed;
-        let with_fixed = |r: Result<Vec<[usize; 3]>, connect::ConnectError>| {
-            let tris = r?;
-            let mut used = vec![false; nf];
-            for t in &tris {
-                for &v in t {
-                    if v < nf {
-                        used[v] = true;
-                    }
-                }
-            }
-            match used.iter().position(|&u| !u) {
-                None => Ok(tris),
-                Some(i) => Err(connect::ConnectError::Coarse(format!(
-                    "the fixed node at ({}, {}, {}) is left out of the triangles",
-                    sys.pos[i].x, sys.pos[i].y, sys.pos[i].z
-                ))),
-            }
-        };
+        let face_area = std::cell::OnceCell::new();
+        let with_fixed = |r| accepted(sys, &face_area, r);
         let first = match with_fixed(connect::triangulate_surface(&pts, segments, directed)) {
             Ok(tris) => return Ok((tris, None)),
             Err(e) if retryable(&e) => e,
@@ -1022,6 +1151,26 @@ impl<'a> FaceJob<'a> {
                 {
                     return Ok((tris, Some(Fallback::SmallerCaps(radius, first.to_string()))));
                 }
+            }
+        }
+        // caps only at the singular points the face reaches: a band of a
+        // sphere between two holes around its poles has no cap there,
+        // whose tangent-plane connection would run over the hole (a cone
+        // frustum's cap at its apex, outside it too, is kept where it
+        // connects: it meshes the frustum better)
+        let reached: Vec<P3> = poles
+            .iter()
+            .filter(|q| reaches(surface, q))
+            .copied()
+            .collect();
+        if reached.len() < poles.len() {
+            let inside = singular_near(&reached, PRM.cap_radius);
+            let retry = connect::SurfacePoints {
+                singular: &inside,
+                ..pts
+            };
+            if let Ok(tris) = with_fixed(connect::triangulate_surface(&retry, segments, directed)) {
+                return Ok((tris, Some(Fallback::CapsWhereReached(first.to_string()))));
             }
         }
         // the face as a graph over one plane, where it is one: valid at any
@@ -1152,6 +1301,109 @@ fn face_left_of_periodic_loop(
         }
     }
     votes >= 0
+}
+
+/// A connection `r` of a curved face's bubbles `sys`, refused (a coarse
+/// connection) where it leaves out a fixed bubble (an embedded vertex near
+/// a pole a cap left out) or its triangles cover less than [`AREA_FLOOR`]
+/// of the face's area (sampled once into `face_area`).
+fn accepted(
+    sys: &System<'_, OnFace<'_>>,
+    face_area: &std::cell::OnceCell<Option<f64>>,
+    r: Result<Vec<[usize; 3]>, connect::ConnectError>,
+) -> Result<Vec<[usize; 3]>, connect::ConnectError> {
+    let tris = r?;
+    if let Some(area) = *face_area.get_or_init(|| sampled_area(&sys.carrier)) {
+        let flat: f64 = tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|k| sys.pos[k]);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .sum();
+        if flat < AREA_FLOOR * area {
+            return Err(connect::ConnectError::Coarse(format!(
+                "its triangles cover {flat:.4e} of its {area:.4e} (model units²): they cut \
+                 through the surface instead of following it"
+            )));
+        }
+    }
+    let mut used = vec![false; sys.n_fixed];
+    for t in &tris {
+        for &v in t {
+            if v < sys.n_fixed {
+                used[v] = true;
+            }
+        }
+    }
+    match used.iter().position(|&u| !u) {
+        None => Ok(tris),
+        Some(i) => Err(connect::ConnectError::Coarse(format!(
+            "the fixed node at ({}, {}, {}) is left out of the triangles",
+            sys.pos[i].x, sys.pos[i].y, sys.pos[i].z
+        ))),
+    }
+}
+
+/// The least share of a curved face's area its flat triangles may cover.
+/// Triangles whose corners lie on the surface cover a little less than
+/// it (the chord error: a sphere of radius 0.7 d at seven nodes per turn,
+/// 18 % less); far less means triangles cutting through the surface: a
+/// void's sphere less a small cap, 13 bubbles at d = r, connected with
+/// smaller caps, had half its area (rp_5_025 of the random parts at
+/// diag/20).
+const AREA_FLOOR: f64 = 0.6;
+
+/// The area of a face (model units²) sampled on a 40 × 40 grid over its
+/// (u,v) box: Σ |S_u × S_v| Δu Δv at the cell centres inside its region.
+/// `None` when fewer than 100 centres are inside (the face is a sliver of
+/// its box: too few samples to judge) or the sum is not finite.
+fn sampled_area(carrier: &OnFace<'_>) -> Option<f64> {
+    const N: usize = 40;
+    let (lo, hi) = carrier.region.bbox();
+    let (du, dv) = ((hi[0] - lo[0]) / N as f64, (hi[1] - lo[1]) / N as f64);
+    if !(du > 0.0 && dv > 0.0 && du.is_finite() && dv.is_finite()) {
+        return None;
+    }
+    let (mut inside, mut sum) = (0usize, 0.0);
+    for i in 0..N {
+        for j in 0..N {
+            let uv = [lo[0] + (i as f64 + 0.5) * du, lo[1] + (j as f64 + 0.5) * dv];
+            if carrier.region.contains(uv[0], uv[1]) {
+                let (_, su, sv) = carrier.surface.tangents(uv[0], uv[1]);
+                sum += su.cross(&sv).norm();
+                inside += 1;
+            }
+        }
+    }
+    let area = sum * du * dv;
+    (inside >= 100 && area.is_finite()).then_some(area)
+}
+
+/// Whether the parameter box of `surface` (its `domain()`; a face's view
+/// of its surface has the face's box) reaches its singular point `q`: the
+/// point's parameters, clamped into the box in the non-periodic
+/// directions, are still at `q` (any u maps to a sphere's pole), within a
+/// millionth of the box's size in model space. Unbounded boxes reach
+/// everything.
+fn reaches(surface: &dyn crate::geom::Surface, q: &P3) -> bool {
+    let (lo, hi) = domain_box(surface);
+    if !lo.iter().chain(&hi).all(|x| x.is_finite()) {
+        return true;
+    }
+    let periods = surface.periods();
+    let size = (surface.point(lo[0], lo[1]) - surface.point(hi[0], hi[1]))
+        .norm()
+        .max((surface.point(lo[0], hi[1]) - surface.point(hi[0], lo[1])).norm());
+    surface.inverse(q, None).is_none_or(|uv| {
+        let mut c = uv;
+        for k in 0..2 {
+            if periods[k].is_none() {
+                c[k] = c[k].clamp(lo[k], hi[k]);
+            }
+        }
+        (surface.point(c[0], c[1]) - q).norm() <= 1e-6 * size
+    })
 }
 
 /// Whether a planar face's (u,v) is an isometry (unit, orthogonal partials
