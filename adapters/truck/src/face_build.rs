@@ -271,6 +271,11 @@ pub(crate) fn face_from_loops_within(
         LoopSense::Unknown => None,
         LoopSense::Oriented { sphere } => Some(sphere),
     };
+    const OUTSIDE: &str =
+        "its loops are all holes in its closed surface (the face is the surface minus their insides)";
+    // the axis to turn the sphere to, and whether the face cannot be read
+    // without the turn
+    let mut turn: Option<(P3, f64, V3, bool)> = None;
     if let (Some(sphere), [false, false], false, true) = (
         oriented,
         keep,
@@ -282,9 +287,8 @@ pub(crate) fn face_from_loops_within(
             .max_by(|&i, &j| area(&loops_uv[i]).total_cmp(&area(&loops_uv[j])))
             .unwrap_or(0);
         if signed_area(&loops_uv[largest]) * sense < 0.0 {
-            let outside = "its loops are all holes in its closed surface (the face is the surface minus their insides)";
             let Some((centre, radius)) = sphere else {
-                return Err(errs(format!("{outside}: supported on spheres only")));
+                return Err(errs(format!("{OUTSIDE}: supported on spheres only")));
             };
             // the other holes stay holes on the turned sphere (a second
             // void's cap and a drilled hole: rp_1_030, now a test)
@@ -293,20 +297,7 @@ pub(crate) fn face_from_loops_within(
             for k in 0..pts.len() {
                 vector_area += (pts[k] - centre).cross(&(pts[(k + 1) % pts.len()] - centre));
             }
-            let turned = bubblemesh_analytic::Frame::new(centre, vector_area)
-                .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))
-                .map_err(|e| errs(format!("{outside}: its sphere cannot be turned ({e})")))?;
-            return face_from_loops_within(
-                Arc::new(turned),
-                planar,
-                same_sense,
-                loops,
-                embedded,
-                model,
-                far,
-                name,
-                LoopSense::Oriented { sphere: None },
-            );
+            turn = Some((centre, radius, vector_area, true));
         }
     }
     // A sphere face with a loop that passes very close by a pole, not
@@ -319,7 +310,7 @@ pub(crate) fn face_from_loops_within(
     // refinement meshes those (rp_4_009, 0.034 r: two rounds at half the
     // spacing), where on the turned sphere of radius below the spacing
     // the other hole fell into the far pole's cap (six rounds).
-    if let (Some(Some((centre, radius))), false) = (oriented, loops_uv.is_empty()) {
+    if let (None, Some(Some((centre, radius))), false) = (turn, oriented, loops_uv.is_empty()) {
         let poles = base.singular_points();
         let clearance = |l: &[[f64; 2]]| {
             l.iter()
@@ -336,9 +327,14 @@ pub(crate) fn face_from_loops_within(
         if let Some((_, i)) = grazed {
             let pts = loop_points(model, &loops[i], K);
             let mean = pts.iter().fold(V3::zeros(), |a, p| a + (p - centre)) / pts.len() as f64;
-            if let Ok(turned) = bubblemesh_analytic::Frame::new(centre, mean)
-                .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))
-            {
+            turn = Some((centre, radius, mean, false));
+        }
+    }
+    if let Some((centre, radius, axis, needed)) = turn {
+        match bubblemesh_analytic::Frame::new(centre, axis)
+            .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))
+        {
+            Ok(turned) => {
                 return face_from_loops_within(
                     Arc::new(turned),
                     planar,
@@ -349,8 +345,14 @@ pub(crate) fn face_from_loops_within(
                     far,
                     name,
                     LoopSense::Oriented { sphere: None },
-                );
+                )
             }
+            Err(e) if needed => {
+                return Err(errs(format!(
+                    "{OUTSIDE}: its sphere cannot be turned ({e})"
+                )))
+            }
+            Err(_) => {}
         }
     }
     // other loops (and embedded vertices) moved next to the first loop

@@ -717,6 +717,10 @@ fn hole_edges(tris: &[[usize; 3]], boundary: &[[usize; 2]]) -> Vec<[usize; 2]> {
         }
         hole.extend(unused);
     }
+    // in a fixed order: the first ones came out of a HashMap, whose order
+    // changes from run to run, and the cap's triangles came out in another
+    // order on some runs (rp_5_025's void as tetrahedra)
+    hole.sort_unstable();
     hole
 }
 

@@ -602,8 +602,9 @@ impl<'a> FaceJob<'a> {
     /// turn was read as not going round it, and the face was meshed as its
     /// hole: rp_4_009 of the random parts). The edge's own curve decides,
     /// walked between the nodes with the (u,v) steps bisected until each
-    /// turns less than an eighth of a period; a step that turns more than
-    /// 0.48 of a period, or the other way than the nearer one, is a
+    /// turns less than an eighth of a period (a curve through the pole
+    /// itself never gets there and is left to the caps); a step that turns
+    /// more than 0.48 of a period, or the other way than the nearer one, is a
     /// connection error (the face is meshed again finer, where more nodes
     /// make the steps short). `with_uv` holds the pcurve's (u,v) where
     /// known; the others are found as [`Self::add_fixed`] does.
@@ -696,6 +697,13 @@ impl<'a> FaceJob<'a> {
                 } else {
                     j += 1;
                 }
+            }
+            // a step still turning at the end ran through the pole itself
+            // (a meridian across it, a line through a cone's apex): the
+            // curve cannot tell the way, the caps around the pole connect
+            // it as before
+            if samples.windows(2).any(|w| far(step(w[0].1, w[1].1), 0.125)) {
+                continue;
             }
             let mut walked = [0.0; 2];
             for w in samples.windows(2) {
@@ -1306,14 +1314,19 @@ fn face_left_of_periodic_loop(
 /// A connection `r` of a curved face's bubbles `sys`, refused (a coarse
 /// connection) where it leaves out a fixed bubble (an embedded vertex near
 /// a pole a cap left out) or its triangles cover less than [`AREA_FLOOR`]
-/// of the face's area (sampled once into `face_area`).
+/// of the face's area (sampled once into `face_area`; faces of at least
+/// [`AREA_JUDGED`] squared spacings).
 fn accepted(
     sys: &System<'_, OnFace<'_>>,
     face_area: &std::cell::OnceCell<Option<f64>>,
     r: Result<Vec<[usize; 3]>, connect::ConnectError>,
 ) -> Result<Vec<[usize; 3]>, connect::ConnectError> {
     let tris = r?;
-    if let Some(area) = *face_area.get_or_init(|| sampled_area(&sys.carrier)) {
+    let d_mean = sys.d.iter().sum::<f64>() / sys.d.len().max(1) as f64;
+    let judged = face_area
+        .get_or_init(|| sampled_area(&sys.carrier))
+        .filter(|&a| a >= AREA_JUDGED * d_mean * d_mean);
+    if let Some(area) = judged {
         let flat: f64 = tris
             .iter()
             .map(|t| {
@@ -1344,6 +1357,14 @@ fn accepted(
         ))),
     }
 }
+
+/// Faces smaller than this many squared spacings (their bubbles' mean)
+/// are not held to [`AREA_FLOOR`]: they have room for a handful of nodes
+/// only. A sphere of radius 1.06 less a cap at d = 1.45 (6.3 d², rp_1_023
+/// of the random parts) is connected as a cone of 8 nodes covering 0.57
+/// of it; refused, its finer levels connected worse (0.44 at d = 0.39)
+/// and the part was refused. The half-covered void of rp_5_025 is 13.5 d².
+const AREA_JUDGED: f64 = 8.0;
 
 /// The least share of a curved face's area its flat triangles may cover.
 /// Triangles whose corners lie on the surface cover a little less than
