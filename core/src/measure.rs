@@ -49,6 +49,12 @@ pub(crate) fn c3(p: &P3) -> robust::Coord3D<f64> {
     }
 }
 
+/// Area of the triangle a, b, c (model units²), ½ |(b − a) × (c − a)|.
+#[inline]
+pub fn triangle_area(a: &P3, b: &P3, c: &P3) -> f64 {
+    0.5 * (b - a).cross(&(c - a)).norm()
+}
+
 /// Radius ratio of a triangle, q = 2·r_in/r_circ
 /// = (b+c−a)(c+a−b)(a+b−c)/(abc) for edge lengths a, b, c: 1 for an
 /// equilateral triangle, 0 for a degenerate one,

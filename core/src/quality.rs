@@ -267,7 +267,7 @@ pub fn poor_elements(mesh: &Mesh, threshold: f64) -> Vec<PoorElements> {
         let vol6 = crate::measure::tet_volume6(&p[0], &p[1], &p[2], &p[3]).abs();
         let largest = crate::measure::TET_FACES
             .iter()
-            .map(|f| 0.5 * (p[f[1]] - p[f[0]]).cross(&(p[f[2]] - p[f[0]])).norm())
+            .map(|f| crate::measure::triangle_area(&p[f[0]], &p[f[1]], &p[f[2]]))
             .fold(0.0, f64::max);
         // 3·V / A with V = vol6 / 6
         let h = if largest > 0.0 {

@@ -1329,10 +1329,7 @@ fn accepted(
     if let Some(area) = judged {
         let flat: f64 = tris
             .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|k| sys.pos[k]);
-                0.5 * (b - a).cross(&(c - a)).norm()
-            })
+            .map(|t| crate::measure::triangle_area(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]))
             .sum();
         if flat < AREA_FLOOR * area {
             return Err(connect::ConnectError::Coarse(format!(
