@@ -718,9 +718,12 @@ impl<'a> FaceJob<'a> {
                     mesh.nodes[chain[k] as usize].pos,
                 );
                 return Err(MeshError::Connect(connect::ConnectError::Coarse(format!(
-                    "its boundary turns around a pole of its surface between the nodes at \
-                     ({}, {}, {}) and ({}, {}, {}) on edge {} ({:.2} of a turn): too few nodes \
-                     there to tell which way it goes",
+                    "its boundary turns {:.2} of a turn round its surface (near a pole, or \
+                     along a long arc) between the nodes at ({}, {}, {}) and ({}, {}, {}) on edge \
+                     {}: too few nodes there to tell which way it goes",
+                    (0..2)
+                        .filter_map(|c| periods[c].map(|p| walked[c].abs() / p))
+                        .fold(0.0, f64::max),
                     pa.x,
                     pa.y,
                     pa.z,
@@ -728,9 +731,6 @@ impl<'a> FaceJob<'a> {
                     pb.y,
                     pb.z,
                     u.edge,
-                    (0..2)
-                        .filter_map(|c| periods[c].map(|p| walked[c].abs() / p))
-                        .fold(0.0, f64::max)
                 ))));
             }
         }
