@@ -249,6 +249,41 @@ impl Surface for Plane {
     }
 }
 
+/// The difference `d` of a periodic coordinate taken the shorter way
+/// round, in [−period/2, period/2]: how boundary nodes are joined across a
+/// seam.
+#[inline]
+pub fn nearest_turn(d: f64, period: f64) -> f64 {
+    d - period * (d / period).round()
+}
+
+/// Bisects the steps of a curve sampled in (u,v), `samples` (curve
+/// parameter, (u,v)) in order, until no step `too_far` says is too long
+/// remains, a step is under 10⁻⁹ of the parameter (a curve through a pole
+/// turns u at once there) or there are `max_len` samples; `at(s, hint)` is
+/// the (u,v) of the curve at `s`, `hint` the sample before it. Used to tell
+/// which way a loop runs round a periodic surface near a pole, where u
+/// turns by nearly half a period within a short arc.
+pub fn bisect_steps<E>(
+    samples: &mut Vec<(f64, [f64; 2])>,
+    max_len: usize,
+    too_far: impl Fn([f64; 2], [f64; 2]) -> bool,
+    mut at: impl FnMut(f64, [f64; 2]) -> Result<[f64; 2], E>,
+) -> Result<(), E> {
+    let mut j = 0;
+    while j + 1 < samples.len() && samples.len() < max_len {
+        let ((s0, p0), (s1, p1)) = (samples[j], samples[j + 1]);
+        if s1 - s0 > 1e-9 && too_far(p0, p1) {
+            let sm = 0.5 * (s0 + s1);
+            let q = at(sm, p0)?;
+            samples.insert(j + 1, (sm, q));
+        } else {
+            j += 1;
+        }
+    }
+    Ok(())
+}
+
 /// Parameter `x` moved into one period `[origin, origin + period)` of a
 /// periodic direction (unchanged when `period` is `None`).
 pub fn wrap_coordinate(x: f64, period: Option<f64>, origin: f64) -> f64 {

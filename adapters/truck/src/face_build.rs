@@ -7,7 +7,7 @@
 
 use std::sync::Arc;
 
-use bubblemesh_core::geom::{Surface, P3, V3};
+use bubblemesh_core::geom::{bisect_steps, nearest_turn, Surface, P3, V3};
 use bubblemesh_core::model::{Face, Loop, Model};
 
 use crate::face_view::FaceView;
@@ -181,12 +181,7 @@ pub(crate) fn face_from_loops_within(
     // wraps around its surface (the engine checks its own nodes' steps the
     // same way, `FaceJob::check_steps_around_poles`)
     let jumps = |a: [f64; 2], b: [f64; 2]| {
-        (0..2).any(|c| {
-            periods[c].is_some_and(|p| {
-                let d = b[c] - a[c];
-                (d - p * (d / p).round()).abs() > p / 4.0
-            })
-        })
+        (0..2).any(|c| periods[c].is_some_and(|p| nearest_turn(b[c] - a[c], p).abs() > p / 4.0))
     };
     for l in &loops.iter().map(|l| l.edges.clone()).collect::<Vec<_>>() {
         let mut pts: Vec<[f64; 2]> = Vec::new();
@@ -204,19 +199,9 @@ pub(crate) fn face_from_loops_within(
                 hint = Some(uv);
                 samples.push((s, uv));
             }
-            // bisect the first jumping step until none is left, or the
-            // steps are 2⁻³⁰ of the edge (a curve through the pole itself)
-            let mut k = 0;
-            while k + 1 < samples.len() && samples.len() < 64 * K {
-                let ((s0, a), (s1, b)) = (samples[k], samples[k + 1]);
-                if s1 - s0 > 1e-9 && jumps(a, b) {
-                    let sm = 0.5 * (s0 + s1);
-                    let m = invert(&at(sm), Some(a), "boundary point")?;
-                    samples.insert(k + 1, (sm, m));
-                } else {
-                    k += 1;
-                }
-            }
+            bisect_steps(&mut samples, 64 * K, jumps, |sm, a| {
+                invert(&at(sm), Some(a), "boundary point")
+            })?;
             // the edge's last point is the next edge's first
             samples.pop();
             pts.extend(samples.into_iter().map(|(_, uv)| uv));
@@ -235,8 +220,7 @@ pub(crate) fn face_from_loops_within(
             let cur = if k < l.len() { l[k] } else { l[0] };
             for c in 0..2 {
                 if let Some(p) = periods[c] {
-                    let d = cur[c] - prev[c];
-                    let d = d - p * (d / p).round();
+                    let d = nearest_turn(cur[c] - prev[c], p);
                     net[c] += d;
                     if k < l.len() {
                         l[k][c] = prev[c] + d;

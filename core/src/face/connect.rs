@@ -825,7 +825,7 @@ fn tangent_cap(
 }
 
 /// Per point of `n`, whether it is a corner of one of `tris`.
-fn corners(n: usize, tris: &[[usize; 3]]) -> Vec<bool> {
+pub(crate) fn corners(n: usize, tris: &[[usize; 3]]) -> Vec<bool> {
     let mut used = vec![false; n];
     for t in tris {
         for &v in t {

@@ -519,12 +519,7 @@ impl<'a> FaceJob<'a> {
         // previous node
         let pcurve_uv = |edge: u32, id: u32, at_end: Option<bool>| -> Option<[f64; 2]> {
             let pc = model.pcurves.get(&(fi as u32, edge))?;
-            let e = &model.edges[edge as usize];
-            let t = match at_end {
-                Some(false) => e.t0,
-                Some(true) => e.t1,
-                None => mesh.nodes[id as usize].params[0],
-            };
+            let t = edge_parameter(&model.edges[edge as usize], mesh, id, at_end);
             let q = pc.point(t);
             Some([q.x, q.y])
         };
@@ -623,31 +618,20 @@ impl<'a> FaceJob<'a> {
         }
         let e = &self.inputs.model.edges[u.edge as usize];
         let m = chain.len();
-        // the edge's parameter at the k-th node of the chain
+        // the edge's parameter at the k-th node of the chain (its ends are
+        // the edge's, in the loop's direction)
         let t_of = |k: usize| {
-            if k == 0 {
-                if u.forward {
-                    e.t0
-                } else {
-                    e.t1
-                }
-            } else if k + 1 == m {
-                if u.forward {
-                    e.t1
-                } else {
-                    e.t0
-                }
-            } else {
-                mesh.nodes[chain[k] as usize].params[0]
-            }
+            let at_end = (k == 0)
+                .then_some(!u.forward)
+                .or((k + 1 == m).then_some(u.forward));
+            edge_parameter(e, mesh, chain[k], at_end)
         };
         // the wrapped difference b − a in each periodic direction
         let step = |a: [f64; 2], b: [f64; 2]| -> [f64; 2] {
             let mut d = [0.0; 2];
             for c in 0..2 {
                 if let Some(p) = periods[c] {
-                    let x = b[c] - a[c];
-                    d[c] = x - p * (x / p).round();
+                    d[c] = crate::geom::nearest_turn(b[c] - a[c], p);
                 }
             }
             d
@@ -687,17 +671,12 @@ impl<'a> FaceJob<'a> {
                 samples.push((s, invert(t0 + (t1 - t0) * s, hint)?));
             }
             samples.push((1.0, uv));
-            let mut j = 0;
-            while j + 1 < samples.len() && samples.len() < 64 * K {
-                let ((s0, p0), (s1, p1)) = (samples[j], samples[j + 1]);
-                if s1 - s0 > 1e-9 && far(step(p0, p1), 0.125) {
-                    let sm = 0.5 * (s0 + s1);
-                    let q = invert(t0 + (t1 - t0) * sm, p0)?;
-                    samples.insert(j + 1, (sm, q));
-                } else {
-                    j += 1;
-                }
-            }
+            crate::geom::bisect_steps(
+                &mut samples,
+                64 * K,
+                |p0, p1| far(step(p0, p1), 0.125),
+                |sm, p0| invert(t0 + (t1 - t0) * sm, p0),
+            )?;
             // a step still turning at the end ran through the pole itself
             // (a meridian across it, a line through a cone's apex): the
             // curve cannot tell the way, the caps around the pole connect
@@ -1287,7 +1266,7 @@ fn face_left_of_periodic_loop(
         let mut b = luv[(k + 1) % m];
         for c in 0..2 {
             if let Some(p) = periods[c] {
-                b[c] = a[c] + ((b[c] - a[c]) - p * ((b[c] - a[c]) / p).round());
+                b[c] = a[c] + crate::geom::nearest_turn(b[c] - a[c], p);
             }
         }
         let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
@@ -1338,15 +1317,10 @@ fn accepted(
             )));
         }
     }
-    let mut used = vec![false; sys.n_fixed];
-    for t in &tris {
-        for &v in t {
-            if v < sys.n_fixed {
-                used[v] = true;
-            }
-        }
-    }
-    match used.iter().position(|&u| !u) {
+    match connect::corners(sys.n(), &tris)[..sys.n_fixed]
+        .iter()
+        .position(|&u| !u)
+    {
         None => Ok(tris),
         Some(i) => Err(connect::ConnectError::Coarse(format!(
             "the fixed node at ({}, {}, {}) is left out of the triangles",
@@ -1396,6 +1370,17 @@ fn sampled_area(carrier: &OnFace<'_>) -> Option<f64> {
     }
     let area = sum * du * dv;
     (inside >= 100 && area.is_finite()).then_some(area)
+}
+
+/// The parameter of edge `e` at mesh node `id`: its start or end where
+/// `at_end` says the node is one (`Some(false)`, `Some(true)`), else the
+/// node's own `[t, 0]`.
+fn edge_parameter(e: &crate::model::Edge, mesh: &Mesh, id: u32, at_end: Option<bool>) -> f64 {
+    match at_end {
+        Some(false) => e.t0,
+        Some(true) => e.t1,
+        None => mesh.nodes[id as usize].params[0],
+    }
 }
 
 /// Whether the parameter box of `surface` (its `domain()`; a face's view

@@ -79,7 +79,7 @@ impl Region {
                     if let Some(p) = periods[c] {
                         let delta = b[c] - a[c];
                         a[c] = wrap(a[c], c);
-                        b[c] = a[c] + (delta - p * (delta / p).round());
+                        b[c] = a[c] + crate::geom::nearest_turn(delta, p);
                     }
                 }
                 for c in 0..2 {
