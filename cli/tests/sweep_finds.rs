@@ -228,3 +228,39 @@ fn a_sphere_less_two_holes_is_meshed_on_its_turned_sphere() {
         0.12,
     );
 }
+
+/// A spherical dimple bounded by one circle of latitude (a hair above its
+/// sphere's equator, the pole inside) at a spacing above its radius: with
+/// its circle points (seven nodes on the rim) every boundary node lies on
+/// one (u,v) line, and the (u,v) triangulation of them gave slivers that
+/// were chords across the dimple's mouth; the face was refused, and then
+/// the circle points were dropped for the whole part (the dimple a cone
+/// of three triangles, 8.0 of 16.7 mm², Gmsh's 13). It keeps them now:
+/// the slivers are filled in the tangent plane with the pole.
+#[test]
+fn a_dimple_bounded_by_a_circle_of_latitude_keeps_its_circle_points() {
+    let name = "dimple_latitude_rim.step";
+    let diag = 73.5584;
+    for (dim, d) in [(2u8, diag / 25.0), (3, diag / 20.0)] {
+        let (size, dim_s) = (d.to_string(), dim.to_string());
+        let report = support::mesh_report(&part(name), &size, &["--dim", &dim_s, "--unit", "mm"]);
+        let cap = &report["engine"]["circle_points"];
+        assert!(
+            cap.is_object(),
+            "{name} --dim {dim}: no circle points in {cap}"
+        );
+        assert!(
+            cap.get("dropped").is_none(),
+            "{name} --dim {dim}: circle points dropped: {}",
+            cap["dropped"]
+        );
+        let dimple = &report["engine"]["faces"][6];
+        assert_eq!(
+            dimple["boundary_bubbles"], 8,
+            "{name} --dim {dim}: {dimple}"
+        );
+    }
+    // the dimple (CAD 16.67 mm²) within the chord error of seven nodes
+    // per turn and a pole (a heptagonal cone is 0.65 of its hemisphere)
+    check_part(name, diag, &[(6, 16.6707)], 9493.6474, 0.4);
+}

@@ -180,6 +180,30 @@ pub fn triangulate_surface(
     segments: &[[usize; 2]],
     boundary: &[[usize; 2]],
 ) -> Result<Vec<[usize; 3]>, ConnectError> {
+    triangulate_surface_with(pts, segments, boundary, false)
+}
+
+/// [`triangulate_surface`] with the (u,v) triangles that are flat against
+/// model space ([`FLAT_UV`]) filled in their tangent plane like the long
+/// ones: the last fallback of a curved face's connection, for a face
+/// whose boundary nodes lie on one (u,v) line (a dimple bounded by a
+/// circle of latitude). An error when there are none.
+pub fn triangulate_surface_filling_flat(
+    pts: &SurfacePoints<'_>,
+    segments: &[[usize; 2]],
+    boundary: &[[usize; 2]],
+) -> Result<Vec<[usize; 3]>, ConnectError> {
+    triangulate_surface_with(pts, segments, boundary, true)
+}
+
+/// [`triangulate_surface`], or with `fill_flat`
+/// [`triangulate_surface_filling_flat`].
+fn triangulate_surface_with(
+    pts: &SurfacePoints<'_>,
+    segments: &[[usize; 2]],
+    boundary: &[[usize; 2]],
+    fill_flat: bool,
+) -> Result<Vec<[usize; 3]>, ConnectError> {
     let sc = pts
         .scale
         .map(|x| if x.is_finite() && x > 0.0 { x } else { 1.0 });
@@ -267,24 +291,60 @@ pub fn triangulate_surface(
         })
     };
     let mut tris: Vec<[usize; 3]> = Vec::new();
+    // with `fill_flat`, whether each of `tris` is flat in (u,v) against
+    // model space (see FLAT_UV)
+    let mut flat: Vec<bool> = Vec::new();
     for t in ext_tris {
         let c = [
             (ext_uv[t[0]][0] + ext_uv[t[1]][0] + ext_uv[t[2]][0]) / 3.0,
             (ext_uv[t[0]][1] + ext_uv[t[1]][1] + ext_uv[t[2]][1]) / 3.0,
         ];
         if in_domain(c) {
-            tris.push([ext_of[t[0]], ext_of[t[1]], ext_of[t[2]]]);
+            let g = [ext_of[t[0]], ext_of[t[1]], ext_of[t[2]]];
+            if fill_flat {
+                let [a, b, q] = [ext_uv[t[0]], ext_uv[t[1]], ext_uv[t[2]]];
+                let uv_area =
+                    0.5 * ((b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0])).abs();
+                let [pa, pb, pc] = g.map(|i| pts.pos[i]);
+                let repeated = g[0] == g[1] || g[1] == g[2] || g[0] == g[2];
+                let area = crate::measure::triangle_area(&pa, &pb, &pc);
+                flat.push(repeated || uv_area < FLAT_UV * area);
+            }
+            tris.push(g);
         }
     }
     // --- where the parametrization is poor (around a pole, a hull lid
     // over a left-out cap) the (u,v) triangles are long in model space:
     // drop them and fill the holes in their tangent plane
-    let (mut short, dropped): (Vec<[usize; 3]>, Vec<[usize; 3]>) = tris.iter().partition(|t| {
+    let short_edges = |t: &[usize; 3]| {
         (0..3).all(|k| {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             (pts.pos[a] - pts.pos[b]).norm() <= LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
         })
-    });
+    };
+    if fill_flat {
+        // the triangles flat in (u,v) go too (see FLAT_UV): a dimple whose
+        // boundary nodes all lie on one (u,v) line is its tangent-plane
+        // fill around the pole
+        if !flat.iter().any(|&f| f) {
+            return Err(ConnectError::Coarse(
+                "no (u,v) triangle is flat against the surface".into(),
+            ));
+        }
+        let (mut kept, mut dropped) = (Vec::new(), Vec::new());
+        for (t, &f) in tris.iter().zip(&flat) {
+            if !f && short_edges(t) {
+                kept.push(*t);
+            } else {
+                dropped.push(*t);
+            }
+        }
+        fill_caps(pts, &mut kept, boundary, &dropped)?;
+        orient_along_normal(pts, &mut kept);
+        return Ok(kept);
+    }
+    let (mut short, dropped): (Vec<[usize; 3]>, Vec<[usize; 3]>) =
+        tris.iter().partition(|t| short_edges(t));
     let mut tris = match fill_caps(pts, &mut short, boundary, &dropped) {
         Ok(()) => short,
         // The long triangles were not a distortion but the face itself: a
@@ -579,6 +639,21 @@ fn orient_along_normal(pts: &SurfacePoints<'_>, tris: &mut [[usize; 3]]) {
         }
     }
 }
+
+/// A (u,v) triangle whose area in the surface-scaled (u,v) is below this
+/// fraction of its model-space area, or that has a node twice (two
+/// periodic copies of one node), marks a degenerate place of the
+/// parametrization ([`triangulate_surface_filling_flat`], the last
+/// fallback of a face's connection): a spherical dimple bounded by one
+/// circle of latitude has every boundary node on one (u,v) line, and the
+/// triangulation of those nodes (the pole is left out)
+/// gave slivers in (u,v) that were chords across the dimple's mouth in
+/// model space (rp_5_004's dimple at diag/25: refused with its circle
+/// points, which were then dropped for the whole part). A regular
+/// parametrization scaled to the surface keeps the two areas within a
+/// small factor of each other; a pole's neighbourhood stretches (u,v),
+/// never shrinks it.
+const FLAT_UV: f64 = 1e-3;
 
 /// An edge of a (u,v) triangle longer than this many spacings marks a
 /// distorted place of the parametrization (see [`triangulate_surface`]).
