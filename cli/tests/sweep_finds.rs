@@ -264,3 +264,21 @@ fn a_dimple_bounded_by_a_circle_of_latitude_keeps_its_circle_points() {
     // per turn and a pole (a heptagonal cone is 0.65 of its hemisphere)
     check_part(name, diag, &[(6, 16.6707)], 9493.6474, 0.4);
 }
+
+/// A small spherical face (r about the spacing) whose loop holds a pole
+/// and runs its seam out to it and back, beside a larger sphere face:
+/// refused before ("not closed by its tangent-plane fill"), Gmsh meshes
+/// it. Its boundary nodes alone are its mesh's nodes, all on one (u,v)
+/// line, and their flat (u,v) triangles are filled in the tangent plane
+/// with the pole. The small face's area is within the chord error of its
+/// few nodes (Gmsh's is 18 % below on the dimples of these sweeps).
+#[test]
+fn a_small_sphere_face_with_a_seam_spur_is_meshed() {
+    check_part(
+        "sphere_face_with_seam_spur.step",
+        77.7659,
+        &[(4, 472.5318), (14, 5.9691)],
+        8868.7652,
+        0.35,
+    );
+}
