@@ -302,13 +302,7 @@ fn triangulate_surface_with(
         if in_domain(c) {
             let g = [ext_of[t[0]], ext_of[t[1]], ext_of[t[2]]];
             if fill_flat {
-                let [a, b, q] = [ext_uv[t[0]], ext_uv[t[1]], ext_uv[t[2]]];
-                let uv_area =
-                    0.5 * ((b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0])).abs();
-                let [pa, pb, pc] = g.map(|i| pts.pos[i]);
-                let repeated = g[0] == g[1] || g[1] == g[2] || g[0] == g[2];
-                let area = crate::measure::triangle_area(&pa, &pb, &pc);
-                flat.push(repeated || uv_area < FLAT_UV * area);
+                flat.push(flat_in_uv(pts, t.map(|e| ext_uv[e]), g));
             }
             tris.push(g);
         }
@@ -316,35 +310,11 @@ fn triangulate_surface_with(
     // --- where the parametrization is poor (around a pole, a hull lid
     // over a left-out cap) the (u,v) triangles are long in model space:
     // drop them and fill the holes in their tangent plane
-    let short_edges = |t: &[usize; 3]| {
-        (0..3).all(|k| {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            (pts.pos[a] - pts.pos[b]).norm() <= LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
-        })
-    };
     if fill_flat {
-        // the triangles flat in (u,v) go too (see FLAT_UV): a dimple whose
-        // boundary nodes all lie on one (u,v) line is its tangent-plane
-        // fill around the pole
-        if !flat.iter().any(|&f| f) {
-            return Err(ConnectError::Coarse(
-                "no (u,v) triangle is flat against the surface".into(),
-            ));
-        }
-        let (mut kept, mut dropped) = (Vec::new(), Vec::new());
-        for (t, &f) in tris.iter().zip(&flat) {
-            if !f && short_edges(t) {
-                kept.push(*t);
-            } else {
-                dropped.push(*t);
-            }
-        }
-        fill_caps(pts, &mut kept, boundary, &dropped)?;
-        orient_along_normal(pts, &mut kept);
-        return Ok(kept);
+        return fill_flat_triangles(pts, &tris, &flat, boundary);
     }
     let (mut short, dropped): (Vec<[usize; 3]>, Vec<[usize; 3]>) =
-        tris.iter().partition(|t| short_edges(t));
+        tris.iter().partition(|t| short_edges(pts, t));
     let mut tris = match fill_caps(pts, &mut short, boundary, &dropped) {
         Ok(()) => short,
         // The long triangles were not a distortion but the face itself: a
@@ -638,6 +608,53 @@ fn orient_along_normal(pts: &SurfacePoints<'_>, tris: &mut [[usize; 3]]) {
             t.swap(1, 2);
         }
     }
+}
+
+/// Whether triangle `g` (nodes) is short in model space: no edge longer
+/// than [`LONG_EDGE`] spacings.
+fn short_edges(pts: &SurfacePoints<'_>, g: &[usize; 3]) -> bool {
+    (0..3).all(|k| {
+        let (a, b) = (g[k], g[(k + 1) % 3]);
+        (pts.pos[a] - pts.pos[b]).norm() <= LONG_EDGE * 0.5 * (pts.d[a] + pts.d[b])
+    })
+}
+
+/// Whether triangle `g` (nodes), at `uv` in the surface-scaled (u,v), is
+/// flat there against model space, or has a node twice ([`FLAT_UV`]).
+fn flat_in_uv(pts: &SurfacePoints<'_>, uv: [[f64; 2]; 3], g: [usize; 3]) -> bool {
+    let [a, b, q] = uv;
+    let uv_area = 0.5 * ((b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0])).abs();
+    let [pa, pb, pc] = g.map(|i| pts.pos[i]);
+    let repeated = g[0] == g[1] || g[1] == g[2] || g[0] == g[2];
+    repeated || uv_area < FLAT_UV * crate::measure::triangle_area(&pa, &pb, &pc)
+}
+
+/// The (u,v) triangles `tris` less the long ones and the `flat` ones,
+/// their holes filled in the tangent plane ([`fill_caps`]): a dimple whose
+/// boundary nodes all lie on one (u,v) line is its tangent-plane fill
+/// around the pole. An error where none is flat.
+fn fill_flat_triangles(
+    pts: &SurfacePoints<'_>,
+    tris: &[[usize; 3]],
+    flat: &[bool],
+    boundary: &[[usize; 2]],
+) -> Result<Vec<[usize; 3]>, ConnectError> {
+    if !flat.iter().any(|&f| f) {
+        return Err(ConnectError::Coarse(
+            "no (u,v) triangle is flat against the surface".into(),
+        ));
+    }
+    let (mut kept, mut dropped) = (Vec::new(), Vec::new());
+    for (t, &f) in tris.iter().zip(flat) {
+        if !f && short_edges(pts, t) {
+            kept.push(*t);
+        } else {
+            dropped.push(*t);
+        }
+    }
+    fill_caps(pts, &mut kept, boundary, &dropped)?;
+    orient_along_normal(pts, &mut kept);
+    Ok(kept)
 }
 
 /// A (u,v) triangle whose area in the surface-scaled (u,v) is below this
