@@ -187,10 +187,7 @@ pub(crate) fn face_from_loops_within(
         let mut pts: Vec<[f64; 2]> = Vec::new();
         for u in l {
             let e = &model.edges[u.edge as usize];
-            let at = |s: f64| {
-                let s = if u.forward { s } else { 1.0 - s };
-                e.curve.point(e.t0 + (e.t1 - e.t0) * s)
-            };
+            let at = |s: f64| edge_point(e, u.forward, s);
             // (edge parameter fraction, (u,v)), the edge's end included
             let mut samples: Vec<(f64, [f64; 2])> = Vec::with_capacity(K + 1);
             for k in 0..=K {
@@ -543,13 +540,16 @@ fn loop_points(model: &Model, lp: &Loop, k: usize) -> Vec<P3> {
         .iter()
         .flat_map(|u| {
             let e = &model.edges[u.edge as usize];
-            (0..k).map(move |j| {
-                let s = j as f64 / k as f64;
-                let s = if u.forward { s } else { 1.0 - s };
-                e.curve.point(e.t0 + (e.t1 - e.t0) * s)
-            })
+            (0..k).map(move |j| edge_point(e, u.forward, j as f64 / k as f64))
         })
         .collect()
+}
+
+/// The point of edge `e` at fraction `s` of its parameter range, counted
+/// from its start if `forward`, else from its end (as a loop uses it).
+fn edge_point(e: &bubblemesh_core::model::Edge, forward: bool, s: f64) -> P3 {
+    let s = if forward { s } else { 1.0 - s };
+    e.curve.point(e.t0 + (e.t1 - e.t0) * s)
 }
 
 /// |signed area| of a closed polygon in (u,v).
