@@ -10,7 +10,9 @@
 //! a query of the largest walk (d_max/d_min)³ cells, nearly all empty (a
 //! volume of `as_0082` at diag/15 spent minutes there);
 //! [`Grid::for_spacings`] then builds an R*-tree (`rstar`) of the points,
-//! whose queries cost O(log n + hits) at any spread.
+//! whose queries cost O(log n + hits) at any spread. Stage 2's neighbour
+//! lists, rebuilt often, take [`Levels`] instead: a grid per spacing class,
+//! each pair asked for from the side whose cells fit it.
 //!
 //! Invariant: `query(p, r, f)` calls `f` for every bubble whose position is
 //! within distance `r` of `p` (and possibly for some farther ones; callers
@@ -196,6 +198,113 @@ impl Cells {
     }
 }
 
+/// Candidate pairs of bubbles of spread spacings: each bubble's spacing
+/// class (d within a factor 2) in a cell grid of its own, with cells of
+/// about the least reach in the class. A pair inside a class is asked for
+/// by its larger bubble, within its own reach; a pair across classes by
+/// its smaller bubble, in the classes above its own, within the reach of
+/// the class's largest.
+///
+/// Why not [`Grid`]: a pair's reach, `reach·(d_i + d_j)/2`, is set by the
+/// larger bubble, so one grid must either be searched from the larger
+/// bubble through cells of the least spacing ((d_max/d_min)³ cells a
+/// query, nearly all empty on a graded volume) or be a tree (an R*-tree
+/// bulk-loaded at every rebuild; a quarter of a graded plate's time). Here
+/// every query spans at most five cells a side, whatever the spread.
+///
+/// Invariant: [`Levels::candidates`] calls `f(i, j)` once for every
+/// unordered pair within `reach·(d_i + d_j)/2` of each other (and for some
+/// farther ones: callers test the distance), with `i` the larger bubble
+/// (`d_j < d_i`, or equal spacings and `i < j`), never twice for a pair.
+pub struct Levels {
+    /// Per bubble, its class.
+    class: Vec<u8>,
+    classes: Vec<Class>,
+}
+
+/// One spacing class: its bubbles, their largest d, and their cells (the
+/// cells' items index `ids`). Every d of a class is below every d of the
+/// next.
+struct Class {
+    ids: Vec<u32>,
+    dmax: f64,
+    cells: Cells,
+}
+
+/// A class's cells, in units of the reach of its least spacing.
+const CELL: f64 = 0.9;
+
+/// Classes beyond this many doublings of the least spacing share the last
+/// one (a spread of 2⁴⁰ is no mesh; the last class's queries then span more
+/// cells, but stay correct).
+const MAX_CLASSES: usize = 40;
+
+impl Levels {
+    /// Classes of the bubbles at `pos` with spacings `d`, for pairs within
+    /// `reach` times their mean spacing.
+    pub fn new(pos: &[P3], d: &[f64], reach: f64) -> Levels {
+        let dmin = d
+            .iter()
+            .cloned()
+            .filter(|v| *v > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        // class k holds d in [dmin·2^k, dmin·2^(k+1)); thresholds by
+        // doubling (exact), so a larger d never takes a lower class
+        let class: Vec<u8> = d
+            .iter()
+            .map(|&v| {
+                let mut k = 0usize;
+                let mut t = 2.0 * dmin;
+                while k + 1 < MAX_CLASSES && v >= t {
+                    k += 1;
+                    t *= 2.0;
+                }
+                k as u8
+            })
+            .collect();
+        let nclass = class.iter().map(|&k| k as usize + 1).max().unwrap_or(0);
+        let mut ids: Vec<Vec<u32>> = vec![Vec::new(); nclass];
+        for (i, &k) in class.iter().enumerate() {
+            ids[k as usize].push(i as u32);
+        }
+        let classes = ids
+            .into_iter()
+            .map(|ids| {
+                let dmax = ids.iter().map(|&i| d[i as usize]).fold(0.0f64, f64::max);
+                let dlo = ids
+                    .iter()
+                    .map(|&i| d[i as usize])
+                    .fold(f64::INFINITY, f64::min);
+                let p: Vec<P3> = ids.iter().map(|&i| pos[i as usize]).collect();
+                let cells = Cells::new(&p, CELL * reach * dlo);
+                Class { ids, dmax, cells }
+            })
+            .collect();
+        Levels { class, classes }
+    }
+
+    /// Calls `f(i, j)` for the candidate pairs (see the type's invariant).
+    pub fn candidates(&self, pos: &[P3], d: &[f64], reach: f64, mut f: impl FnMut(usize, usize)) {
+        for q in 0..pos.len() {
+            let (pq, dq) = (pos[q], d[q]);
+            let own = self.class[q] as usize;
+            let c = &self.classes[own];
+            c.cells.query(&pq, reach * dq, |local| {
+                let j = c.ids[local as usize] as usize;
+                let dj = d[j];
+                if dj < dq || (dj == dq && j > q) {
+                    f(q, j);
+                }
+            });
+            for c in &self.classes[own + 1..] {
+                c.cells.query(&pq, reach * 0.5 * (dq + c.dmax), |local| {
+                    f(c.ids[local as usize] as usize, q);
+                });
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,6 +349,43 @@ mod tests {
             for (j, p) in pts.iter().enumerate() {
                 if (p - q).norm() <= r {
                     assert!(found.contains(&(j as u32)));
+                }
+            }
+        }
+    }
+
+    /// Every pair within reach of its mean spacing is given once, by its
+    /// larger bubble first, over spacings spread 200-fold, with ties (equal
+    /// spacings at the class boundaries) and coincident points.
+    #[test]
+    fn levels_give_every_pair_within_reach_once_larger_first() {
+        let mut pts = Vec::new();
+        let mut d = Vec::new();
+        let mut rnd = crate::bubbles::testing::uniform(7);
+        for k in 0..2500 {
+            pts.push(P3::new(rnd(), rnd(), 0.2 * rnd()));
+            d.push(match k % 5 {
+                0 => 0.2,
+                1 => 0.004,
+                2 => 0.008,
+                _ => 0.001 + 0.05 * rnd(),
+            });
+        }
+        pts.push(pts[10]);
+        d.push(d[10]);
+        let reach = 1.65;
+        let lv = Levels::new(&pts, &d, reach);
+        let n = pts.len();
+        let mut seen = std::collections::HashSet::new();
+        lv.candidates(&pts, &d, reach, |i, j| {
+            assert!(d[j] < d[i] || (d[j] == d[i] && i < j), "{i} {j}");
+            assert!(seen.insert((i, j)), "pair ({i}, {j}) given twice");
+        });
+        for i in 0..n {
+            for j in 0..n {
+                let larger = d[j] < d[i] || (d[j] == d[i] && i < j);
+                if larger && (pts[i] - pts[j]).norm() < reach * 0.5 * (d[i] + d[j]) {
+                    assert!(seen.contains(&(i, j)), "pair ({i}, {j}) missed");
                 }
             }
         }

@@ -17,6 +17,7 @@ use crate::geom::{P3, V3};
 use crate::bubbles::constraint::Carrier;
 use crate::bubbles::dynamics::{self, Integrator, K0, MASS};
 use crate::bubbles::force;
+use crate::bubbles::grid::Levels;
 use crate::bubbles::population;
 use crate::bubbles::system::{EnergySample, RelaxSettings, RelaxStats, System};
 use crate::error::MeshError;
@@ -122,31 +123,21 @@ impl<'a, C: Carrier> System<'a, C> {
     /// (1.5 + SKIN)·r0, both directions, in compressed rows. Reused until a
     /// bubble has moved far enough to use up the skin.
     fn neighbours(&self) -> Neighbours {
-        let grid = self.grid();
         let reach = force::CUTOFF + SKIN;
         let nf = self.n_fixed;
-        // a fixed bubble looks for free ones only (beside a boundary
-        // refined to d/64, a fixed bubble of the requested spacing has
-        // thousands of fixed ones in reach)
-        let free = grid.only_from(&self.pos, nf);
+        // by spacing class: beside a boundary refined to d/64, a bubble of
+        // the requested spacing then searches its own class, not the
+        // thousands of small ones in its reach
+        let levels = Levels::new(&self.pos, &self.d, reach);
         let mut pairs: Vec<(u32, u32)> = Vec::new();
-        for i in 0..self.n() {
-            let (pi, di) = (self.pos[i], self.d[i]);
-            let search = match &free {
-                Some(free) if i < nf => free,
-                _ => &grid,
-            };
-            search.query(&pi, reach * di, |j| {
-                let j = j as usize;
-                let dj = self.d[j];
-                if !(dj < di || (dj == di && j > i)) || (i < nf && j < nf) {
-                    return;
-                }
-                if (pi - self.pos[j]).norm() < reach * 0.5 * (di + dj) {
-                    pairs.push((i as u32, j as u32));
-                }
-            });
-        }
+        levels.candidates(&self.pos, &self.d, reach, |i, j| {
+            if i < nf && j < nf {
+                return;
+            }
+            if (self.pos[i] - self.pos[j]).norm() < reach * 0.5 * (self.d[i] + self.d[j]) {
+                pairs.push((i as u32, j as u32));
+            }
+        });
         let n = self.n();
         let mut start = vec![0u32; n + 1];
         for &(i, j) in &pairs {
