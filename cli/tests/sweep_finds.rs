@@ -282,3 +282,21 @@ fn a_small_sphere_face_with_a_seam_spur_is_meshed() {
         0.35,
     );
 }
+
+/// A hole's wall (face 8, r 3.7) opened by a slot 2.1 wide down to
+/// mid-height, with strips about a quarter of the spacing wide between
+/// the window and the wall's other edges. As tetrahedra at diag/20 the
+/// wall was connected from edge nodes side by side across the strips and
+/// failed at every refinement (refused after 19 s); its edges are now
+/// meshed again staggered, as a surface mesh's are, and the part meshes
+/// at the size asked.
+#[test]
+fn a_solid_face_that_needs_staggered_edge_nodes_is_meshed() {
+    check_part_at(
+        "stagger_in_solid.step",
+        &[(3, 91.8403 / 20.0)],
+        &[(8, 892.7428)],
+        22680.8686,
+        0.1,
+    );
+}

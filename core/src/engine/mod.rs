@@ -80,6 +80,12 @@ pub struct Report {
     pub refined_places: Vec<refine::RefinedPlace>,
     /// How many times the model was meshed again finer (0: once, as asked).
     pub refinement_rounds: usize,
+    /// Faces of a solid mesh whose edges were meshed again with their
+    /// nodes staggered across strips narrower than the spacing
+    /// ([`crate::edge::stagger`]; surface meshes stagger everywhere, solid
+    /// ones only where a face could not be connected without it).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub staggered_faces: Vec<String>,
     /// Faces of the last round whose inputs (boundary nodes, spacing) were
     /// those of an earlier round: their mesh was replayed, not made again
     /// (the same triangles; see `engine::memo`).
@@ -179,6 +185,9 @@ fn mesh_refining(
     let mut edge_memos: memo::EdgeMemos = Vec::new();
     // the surface triangles of the first attempt that asked for places
     let mut before_places: Option<usize> = None;
+    // faces of a solid mesh whose edges take staggered nodes (see below)
+    let mut staggered: std::collections::BTreeSet<u32> = Default::default();
+    let solid = opts.dim.unwrap_or(model.dim()) >= 3;
     loop {
         rounds += 1;
         let (cap_state, edge_cap_state) = cap_states(model, capped.as_ref());
@@ -199,6 +208,7 @@ fn mesh_refining(
             refinement: &refinement,
             cap_state: &cap_state,
             edge_cap_state: &edge_cap_state,
+            staggered: &staggered,
         };
         match mesh_once(model, &refined, spacing, opts, &refinement, replay) {
             Ok((mesh, mut report)) => {
@@ -209,11 +219,28 @@ fn mesh_refining(
                 report.refined = refinement.faces(model);
                 report.refined_places = refinement.places();
                 report.refinement_rounds = rounds - 1;
+                report.staggered_faces = staggered
+                    .iter()
+                    .map(|&f| model.describe(EntityRef::new(2, f)))
+                    .collect();
                 report.timings.total_s = t_start.elapsed().as_secs_f64();
                 return Ok((mesh, report));
             }
             Err(failed) => {
                 let reason = failed.error.to_string();
+                // a solid mesh keeps its edges' nodes side by side (their
+                // tetrahedra are better so); a face that cannot be
+                // connected so has its edges meshed again staggered before
+                // anything is made finer (a narrow band between two arcs of
+                // a cylinder, rp_5_026: staggered it meshes at the size
+                // asked, side by side it failed every refinement)
+                if solid && !opts.fast && failed.spots.is_empty() {
+                    let before = staggered.len();
+                    staggered.extend(failed.faces.iter().copied());
+                    if staggered.len() > before {
+                        continue;
+                    }
+                }
                 // a released face that fails again is refined once with the
                 // cap kept (as_0053's six countersink cones fold at the
                 // requested spacing and mesh at half of it; dropping the cap
@@ -511,6 +538,8 @@ struct Replay<'m> {
     cap_state: &'m [u64],
     /// The same per edge.
     edge_cap_state: &'m [u64],
+    /// Faces of a solid mesh whose edges take staggered nodes.
+    staggered: &'m std::collections::BTreeSet<u32>,
 }
 
 /// A face meshed: its nodes and triangles or why not, and the time it took.
@@ -584,19 +613,26 @@ impl Attempt<'_> {
         // edges would share one mesh segment and their faces one mesh edge
         let mut single_segment: std::collections::HashSet<(u32, u32)> = Default::default();
         let solid = self.report.dim >= 3;
-        // ghosts are asked for on surface meshes only (see below)
-        let neighbours = if opts.fast || solid {
+        // ghosts across every face of a surface mesh, and across the faces
+        // of a solid one that could not be connected without them (see
+        // `mesh_refining`): staggered strips serve surface meshes, while
+        // the tetrahedra on their obtuse triangles came out flatter
+        // (docs/decisions.md, session 25)
+        let mut neighbours = if opts.fast {
             Vec::new()
         } else {
             crate::edge::stagger::earlier_neighbours(model)
         };
+        if solid {
+            for row in &mut neighbours {
+                row.retain(|(_, f)| memory.staggered.contains(f));
+            }
+        }
         let mut sides = Default::default();
         for (ei, edge) in model.edges.iter().enumerate() {
             let e = EntityRef::new(1, ei as u32);
             let start = opts.warm.as_deref().and_then(|w| w.of(e));
-            // staggered strips serve surface meshes; the tetrahedra on
-            // their obtuse triangles came out flatter (docs/decisions.md)
-            let ghosts = if opts.fast || start.is_some() || solid {
+            let ghosts = if opts.fast || start.is_some() || neighbours[ei].is_empty() {
                 Vec::new()
             } else {
                 crate::edge::stagger::ghosts_of_edge(
