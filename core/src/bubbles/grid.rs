@@ -210,7 +210,8 @@ impl Cells {
 /// bubble through cells of the least spacing ((d_max/d_min)³ cells a
 /// query, nearly all empty on a graded volume) or be a tree (an R*-tree
 /// bulk-loaded at every rebuild; a quarter of a graded plate's time). Here
-/// every query spans at most five cells a side, whatever the spread.
+/// a query reaches at most 2.2 cells from its centre (six cells a side),
+/// whatever the spread.
 ///
 /// Invariant: [`Levels::candidates`] calls `f(i, j)` once for every
 /// unordered pair within `reach·(d_i + d_j)/2` of each other (and for some
