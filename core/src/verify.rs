@@ -27,7 +27,11 @@
 //!   triangle of the volume's faces is a face of exactly one of its
 //!   tetrahedra, every other tetrahedron face is shared by exactly two, so
 //!   the tetrahedra's boundary is exactly the volume's face meshes; every
-//!   node of the volume's own is a corner of one of its tetrahedra.
+//!   node of the volume's own is a corner of one of its tetrahedra;
+//! - **every node** is a corner of an element of the mesh's top dimension
+//!   (a model vertex on no edge and in no face, or an edge or face that no
+//!   such element reaches, fails here; meshcheck calls such a node
+//!   unreferenced).
 //!
 //! The checks are O(n) hash-map passes; on case K (1.3 M tetrahedra) they
 //! cost a small fraction of the meshing time.
@@ -129,7 +133,53 @@ pub fn verify(model: &Model, mesh: &Mesh, dim: u8) -> Result<(), CheckError> {
     if !mesh.tetrahedra.is_empty() {
         check_volumes(model, mesh)?;
     }
-    Ok(())
+    check_referenced(model, mesh)
+}
+
+/// Every node is a corner of an element of the mesh's top dimension
+/// (tetrahedra where there are any, else triangles): the independent
+/// checker calls any other node unreferenced and the mesh invalid. The
+/// per-face and per-volume checks cover the nodes of a face's or a
+/// volume's own; this one also the nodes of the model's vertices and
+/// edges, which no element of the top dimension reaches where the model
+/// has a vertex on no edge and in no face, an edge on no face in a surface
+/// mesh, or a face bounding no volume in a solid mesh.
+fn check_referenced(model: &Model, mesh: &Mesh) -> Result<(), CheckError> {
+    let mut used = vec![false; mesh.nodes.len()];
+    let mut mark = |nodes: &[u32]| {
+        for &n in nodes {
+            if let Some(u) = used.get_mut(n as usize) {
+                *u = true;
+            }
+        }
+    };
+    let what = if !mesh.tetrahedra.is_empty() {
+        mesh.tetrahedra.iter().for_each(|t| mark(&t.nodes));
+        "tetrahedron"
+    } else if !mesh.triangles.is_empty() {
+        mesh.triangles.iter().for_each(|t| mark(&t.nodes));
+        "triangle"
+    } else {
+        return Ok(());
+    };
+    match used.iter().position(|u| !u) {
+        None => Ok(()),
+        Some(i) => {
+            let node = &mesh.nodes[i];
+            Err(CheckError {
+                entity: node.entity,
+                also: vec![],
+                refinable: false,
+                what: format!(
+                    "a node of {} is a corner of no {what} (the part has an entity no \
+                     element of the mesh's dimension reaches: a vertex on no edge, an edge on \
+                     no face, or a face bounding no volume)",
+                    model.describe(node.entity)
+                ),
+                at: node.pos,
+            })
+        }
+    }
 }
 
 fn pos(mesh: &Mesh, i: u32) -> P3 {
