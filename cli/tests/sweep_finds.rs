@@ -300,3 +300,20 @@ fn a_solid_face_that_needs_staggered_edge_nodes_is_meshed() {
         0.1,
     );
 }
+
+/// Two overlapping spherical dimples (r 4.3 and 4.9) meshed coarsely. As
+/// tetrahedra at diag/20, the volume stage turned pairs of boundary
+/// triangles towards the Delaunay tetrahedralization's faces, two turns
+/// of one pass made the same diagonal, and that mesh edge lay in four
+/// triangles: the part was refused ("the boundary is not closed") where
+/// Gmsh meshes it. Each pass now makes a diagonal at most once.
+#[test]
+fn two_turns_of_one_pass_do_not_make_one_edge_twice() {
+    check_part_at(
+        "overlapping_dimples.step",
+        &[(3, 89.6862 / 20.0)],
+        &[(6, 73.2064), (7, 150.3661)],
+        14230.688,
+        0.2,
+    );
+}

@@ -257,6 +257,11 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
     for _ in 0..PASSES {
         let by_edge = by_edge(mesh, idx.iter().copied());
         let mut touched: HashSet<usize> = HashSet::new();
+        // the diagonals this pass's turns make: `by_edge` is of the pass's
+        // start, so two turns could otherwise make one edge twice, an edge
+        // in four triangles (rp_7_020 of the random parts: two dimples'
+        // coarse spheres, refused as "the boundary is not closed")
+        let mut made: HashSet<(u32, u32)> = HashSet::new();
         let mut flips: Vec<(usize, [u32; 3], usize, [u32; 3])> = Vec::new();
         for &k in idx {
             if touched.contains(&k) || !missing(mesh, k) {
@@ -270,9 +275,10 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
                 if !delaunay.contains(&sorted3(t1)) || !delaunay.contains(&sorted3(t2)) {
                     continue;
                 }
-                if !q.turn_keeps_facing(mesh) {
+                if !q.turn_keeps_facing(mesh) || made.contains(&key(q.c, q.d)) {
                     continue;
                 }
+                made.insert(key(q.c, q.d));
                 touched.insert(k);
                 touched.insert(m);
                 flips.push((k, t1, m, t2));
@@ -355,6 +361,8 @@ pub(crate) fn turn_flat_quads(
     let lines = mesh_lines(mesh);
     let by_edge = by_edge(mesh, idx.iter().copied());
     let mut touched: HashSet<usize> = HashSet::new();
+    // the diagonals made here (`by_edge` is of the start; see `flip_with`)
+    let mut made: HashSet<(u32, u32)> = HashSet::new();
     let mut removed = Vec::new();
     for &ti in flat {
         let g = tets[ti].map(|k| global[k as usize]);
@@ -373,9 +381,14 @@ pub(crate) fn turn_flat_quads(
         let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
             continue;
         };
-        if q.m != m || touched.contains(&k) || !q.turn_keeps_facing(mesh) {
+        if q.m != m
+            || touched.contains(&k)
+            || made.contains(&key(q.c, q.d))
+            || !q.turn_keeps_facing(mesh)
+        {
             continue;
         }
+        made.insert(key(q.c, q.d));
         let [t1, t2] = q.turned();
         mesh.triangles[k].nodes = t1;
         mesh.triangles[m].nodes = t2;

@@ -244,6 +244,9 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
     for _ in 0..LAWSON_PASSES {
         let by_edge = by_edge(mesh, idx.iter().copied());
         let mut touched: HashSet<usize> = HashSet::new();
+        // the edges this pass made (`by_edge` is of the pass's start; see
+        // `recover::flip_with`)
+        let mut made: HashSet<(u32, u32)> = HashSet::new();
         let mut turned = 0;
         for &k in &idx {
             if touched.contains(&k) {
@@ -260,9 +263,10 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
                 if angle(q.c, q.a, q.b) + angle(q.d, q.b, q.a) <= std::f64::consts::PI + 1e-9 {
                     continue;
                 }
-                if !q.turn_keeps_facing(mesh) {
+                if made.contains(&key(q.c, q.d)) || !q.turn_keeps_facing(mesh) {
                     continue;
                 }
+                made.insert(key(q.c, q.d));
                 let (m, [t1, t2]) = (q.m, q.turned());
                 mesh.triangles[k].nodes = t1;
                 mesh.triangles[m].nodes = t2;
