@@ -274,23 +274,27 @@ fn a_volume_node_in_no_tetrahedron_is_refused() {
     fails_with(&m, &mesh, 3, "is no corner of any of its tetrahedra");
 }
 
-/// A node of a model vertex on no edge and in no face (a free vertex of
-/// the file) is a corner of no triangle: the independent checker calls it
-/// unreferenced, so the check refuses the mesh.
-#[test]
-fn a_node_in_no_triangle_of_a_surface_mesh_is_refused() {
-    let (mut m, mut mesh) = meshed(SQUARE, 0.1, 2);
-    let p = bubblemesh_core::P3::new(3.0, 3.0, 0.0);
+/// Adds a model vertex at `p` on no edge and in no face (a free vertex of
+/// the file), with its node, as the engine makes one per vertex.
+fn add_free_vertex(m: &mut Model, mesh: &mut Mesh, p: bubblemesh_core::P3) {
     m.vertices.push(bubblemesh_core::model::Vertex {
         point: p,
         name: Some("free".into()),
     });
-    let v = (m.vertices.len() - 1) as u32;
     mesh.nodes.push(bubblemesh_core::mesh::Node {
         pos: p,
-        entity: bubblemesh_core::model::EntityRef::new(0, v),
+        entity: bubblemesh_core::model::EntityRef::new(0, (m.vertices.len() - 1) as u32),
         params: [0.0, 0.0],
     });
+}
+
+/// A node of a model vertex on no edge and in no face is a corner of no
+/// triangle: the independent checker calls it unreferenced, so the check
+/// refuses the mesh.
+#[test]
+fn a_node_in_no_triangle_of_a_surface_mesh_is_refused() {
+    let (mut m, mut mesh) = meshed(SQUARE, 0.1, 2);
+    add_free_vertex(&mut m, &mut mesh, bubblemesh_core::P3::new(3.0, 3.0, 0.0));
     fails_with(&m, &mesh, 2, "is a corner of no triangle");
 }
 
@@ -299,16 +303,6 @@ fn a_node_in_no_triangle_of_a_surface_mesh_is_refused() {
 #[test]
 fn a_node_in_no_tetrahedron_of_a_solid_mesh_is_refused() {
     let (mut m, mut mesh) = meshed(CUBE, 0.25, 3);
-    let p = bubblemesh_core::P3::new(3.0, 3.0, 3.0);
-    m.vertices.push(bubblemesh_core::model::Vertex {
-        point: p,
-        name: Some("free".into()),
-    });
-    let v = (m.vertices.len() - 1) as u32;
-    mesh.nodes.push(bubblemesh_core::mesh::Node {
-        pos: p,
-        entity: bubblemesh_core::model::EntityRef::new(0, v),
-        params: [0.0, 0.0],
-    });
+    add_free_vertex(&mut m, &mut mesh, bubblemesh_core::P3::new(3.0, 3.0, 3.0));
     fails_with(&m, &mesh, 3, "is a corner of no tetrahedron");
 }
