@@ -11,8 +11,8 @@
 //! volume of `as_0082` at diag/15 spent minutes there);
 //! [`Grid::for_spacings`] then builds an R*-tree (`rstar`) of the points,
 //! whose queries cost O(log n + hits) at any spread. Stage 2's neighbour
-//! lists, rebuilt often, take [`Levels`] instead: a grid per spacing class,
-//! each pair asked for from the side whose cells fit it.
+//! lists, rebuilt often, take [`Levels`] there instead: a grid per spacing
+//! class, each pair asked for from the side whose cells fit it.
 //!
 //! Invariant: `query(p, r, f)` calls `f` for every bubble whose position is
 //! within distance `r` of `p` (and possibly for some farther ones; callers
@@ -241,6 +241,15 @@ const CELL: f64 = 0.9;
 const MAX_CLASSES: usize = 40;
 
 impl Levels {
+    /// Whether spacings `d` spread over more than [`MAX_SPREAD`]: there a
+    /// single [`Grid`] would be a tree, and the classes are faster; below
+    /// it the single grid's cells are (cases B and C, 4–5 %).
+    pub fn needed(d: &[f64]) -> bool {
+        let dmin = d.iter().cloned().fold(f64::INFINITY, f64::min);
+        let dmax = d.iter().cloned().fold(0.0f64, f64::max);
+        dmax > MAX_SPREAD * dmin
+    }
+
     /// Classes of the bubbles at `pos` with spacings `d`, for pairs within
     /// `reach` times their mean spacing.
     pub fn new(pos: &[P3], d: &[f64], reach: f64) -> Levels {

@@ -125,19 +125,34 @@ impl<'a, C: Carrier> System<'a, C> {
     fn neighbours(&self) -> Neighbours {
         let reach = force::CUTOFF + SKIN;
         let nf = self.n_fixed;
-        // by spacing class: beside a boundary refined to d/64, a bubble of
-        // the requested spacing then searches its own class, not the
-        // thousands of small ones in its reach
-        let levels = Levels::new(&self.pos, &self.d, reach);
         let mut pairs: Vec<(u32, u32)> = Vec::new();
-        levels.candidates(&self.pos, &self.d, reach, |i, j| {
-            if i < nf && j < nf {
-                return;
-            }
-            if (self.pos[i] - self.pos[j]).norm() < reach * 0.5 * (self.d[i] + self.d[j]) {
+        let mut keep = |i: usize, j: usize| {
+            if (i >= nf || j >= nf)
+                && (self.pos[i] - self.pos[j]).norm() < reach * 0.5 * (self.d[i] + self.d[j])
+            {
                 pairs.push((i as u32, j as u32));
             }
-        });
+        };
+        if Levels::needed(&self.d) {
+            // by spacing class: beside a boundary refined to d/64, a bubble
+            // of the requested spacing then searches its own class, not the
+            // thousands of small ones in its reach
+            Levels::new(&self.pos, &self.d, reach).candidates(&self.pos, &self.d, reach, keep);
+        } else {
+            // one grid, each pair asked for by its larger bubble (cheaper
+            // than the classes where the spacings spread little)
+            let grid = self.grid();
+            for i in 0..self.n() {
+                let di = self.d[i];
+                grid.query(&self.pos[i], reach * di, |j| {
+                    let j = j as usize;
+                    let dj = self.d[j];
+                    if dj < di || (dj == di && j > i) {
+                        keep(i, j);
+                    }
+                });
+            }
+        }
         let n = self.n();
         let mut start = vec![0u32; n + 1];
         for &(i, j) in &pairs {
