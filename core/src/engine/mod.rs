@@ -185,9 +185,8 @@ fn mesh_refining(
     let mut edge_memos: memo::EdgeMemos = Vec::new();
     // the surface triangles of the first attempt that asked for places
     let mut before_places: Option<usize> = None;
-    // faces of a solid mesh whose edges take staggered nodes (see below)
+    // faces of a solid mesh whose edges take staggered nodes
     let mut staggered: std::collections::BTreeSet<u32> = Default::default();
-    let solid = opts.dim.unwrap_or(model.dim()) >= 3;
     loop {
         rounds += 1;
         let (cap_state, edge_cap_state) = cap_states(model, capped.as_ref());
@@ -228,18 +227,8 @@ fn mesh_refining(
             }
             Err(failed) => {
                 let reason = failed.error.to_string();
-                // a solid mesh keeps its edges' nodes side by side (their
-                // tetrahedra are better so); a face that cannot be
-                // connected so has its edges meshed again staggered before
-                // anything is made finer (a narrow band between two arcs of
-                // a cylinder, rp_5_026: staggered it meshes at the size
-                // asked, side by side it failed every refinement)
-                if solid && !opts.fast && failed.spots.is_empty() {
-                    let before = staggered.len();
-                    staggered.extend(failed.faces.iter().copied());
-                    if staggered.len() > before {
-                        continue;
-                    }
+                if stagger_first(model, opts, &failed, &mut staggered) {
+                    continue;
                 }
                 // a released face that fails again is refined once with the
                 // cap kept (as_0053's six countersink cones fold at the
@@ -291,22 +280,7 @@ fn mesh_refining(
                         .collect(),
                     _ => Vec::new(),
                 };
-                let (faces, reasons): (Vec<u32>, Vec<String>) = failed
-                    .faces
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, f)| !released.contains(f))
-                    .map(|(k, &f)| {
-                        (
-                            f,
-                            failed
-                                .reasons
-                                .get(k)
-                                .cloned()
-                                .unwrap_or_else(|| reason.clone()),
-                        )
-                    })
-                    .unzip();
+                let (faces, reasons) = to_refine(&failed, &released, &reason);
                 if let Some(why) = places_stop(&failed, &mut before_places, rounds, &refinement) {
                     let source = Box::new(failed.error);
                     return Err(MeshError::RefinementStopped { why, source });
@@ -335,6 +309,44 @@ fn mesh_refining(
             }
         }
     }
+}
+
+/// Whether `failed`, an attempt of a solid mesh, is met first by meshing
+/// the edges of its failing faces again with staggered nodes (their ids
+/// join `staggered`): a solid mesh keeps its edges' nodes side by side
+/// (its tetrahedra are better so), and a face that cannot be connected so
+/// has its edges staggered before anything is made finer (a narrow band
+/// between two arcs of a cylinder, rp_5_026: staggered it meshes at the
+/// size asked, side by side it failed every refinement). False for
+/// surface meshes, failures that name places, and faces staggered already.
+fn stagger_first(
+    model: &Model,
+    opts: &Options,
+    failed: &Failed,
+    staggered: &mut std::collections::BTreeSet<u32>,
+) -> bool {
+    let solid = opts.dim.unwrap_or(model.dim()) >= 3;
+    if !solid || opts.fast || !failed.spots.is_empty() {
+        return false;
+    }
+    let before = staggered.len();
+    staggered.extend(failed.faces.iter().copied());
+    staggered.len() > before
+}
+
+/// The faces of `failed` to refine, those not `released`, with why each
+/// failed (`reason`, the attempt's error, where its own is not known).
+fn to_refine(failed: &Failed, released: &[u32], reason: &str) -> (Vec<u32>, Vec<String>) {
+    failed
+        .faces
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| !released.contains(f))
+        .map(|(k, &f)| {
+            let why = failed.reasons.get(k).cloned();
+            (f, why.unwrap_or_else(|| reason.to_string()))
+        })
+        .unzip()
 }
 
 /// Why refinement by places stops after attempt `rounds` failed as
