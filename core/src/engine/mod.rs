@@ -630,8 +630,8 @@ impl Attempt<'_> {
         // `mesh_refining`): staggered strips serve surface meshes, while
         // the tetrahedra on their obtuse triangles came out flatter
         // (docs/decisions.md, session 25)
-        let mut neighbours = if opts.fast {
-            Vec::new()
+        let mut neighbours = if opts.fast || (solid && memory.staggered.is_empty()) {
+            vec![Vec::new(); model.edges.len()]
         } else {
             crate::edge::stagger::earlier_neighbours(model)
         };

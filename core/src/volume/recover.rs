@@ -154,16 +154,43 @@ pub(crate) struct Quad {
     pub d: u32,
 }
 
+/// The turns of one pass over triangles whose edge table (`by_edge`) is
+/// of the pass's start: the triangles turned (each at most once a pass)
+/// and the diagonals made. A diagonal an earlier turn of the pass made is
+/// an edge already, which the table does not know: two turns making one
+/// diagonal left it in four triangles (rp_7_020 of the random parts, two
+/// dimples' coarse spheres, refused as "the boundary is not closed").
+#[derive(Default)]
+pub(crate) struct PassTurns {
+    touched: HashSet<usize>,
+    made: HashSet<(u32, u32)>,
+}
+
+impl PassTurns {
+    /// Whether triangle `k` was turned in this pass.
+    pub(crate) fn touched(&self, k: usize) -> bool {
+        self.touched.contains(&k)
+    }
+
+    /// Records the turn of `q`, the quadrilateral across triangle `k`.
+    pub(crate) fn record(&mut self, k: usize, q: &Quad) {
+        self.touched.insert(k);
+        self.touched.insert(q.m);
+        self.made.insert(key(q.c, q.d));
+    }
+}
+
 impl Quad {
     /// The quadrilateral across edge `i` of triangle `k`, where it may be
     /// turned: the edge is no mesh line, has exactly two triangles, both
-    /// of the same face and neither in `touched`, and the other diagonal
-    /// c–d is not an edge already. `by_edge`: the triangles of each edge.
+    /// of the same face and neither turned in this pass (`turns`), and the
+    /// other diagonal c–d is not an edge already (in `by_edge`, the
+    /// triangles of each edge at the pass's start, or made by the pass).
     pub(crate) fn across(
         mesh: &Mesh,
         by_edge: &HashMap<(u32, u32), Vec<usize>>,
         lines: &HashSet<(u32, u32)>,
-        touched: &HashSet<usize>,
+        turns: &PassTurns,
         k: usize,
         i: usize,
     ) -> Option<Quad> {
@@ -177,14 +204,14 @@ impl Quad {
             return None;
         }
         let m = if users[0] == k { users[1] } else { users[0] };
-        if touched.contains(&m) || mesh.triangles[m].entity != t.entity {
+        if turns.touched(m) || mesh.triangles[m].entity != t.entity {
             return None;
         }
         // the neighbour as (b, a, d): the shared edge reversed
         let u = mesh.triangles[m].nodes;
         let j = (0..3).find(|&j| u[j] == b && u[(j + 1) % 3] == a)?;
         let d = u[(j + 2) % 3];
-        if d == c || by_edge.contains_key(&key(c, d)) {
+        if d == c || by_edge.contains_key(&key(c, d)) || turns.made.contains(&key(c, d)) {
             return None;
         }
         Some(Quad { m, a, b, c, d })
@@ -256,31 +283,24 @@ pub(crate) fn flip_with(mesh: &mut Mesh, idx: &[usize], delaunay: &FaceSet) -> u
     let mut turned = 0;
     for _ in 0..PASSES {
         let by_edge = by_edge(mesh, idx.iter().copied());
-        let mut touched: HashSet<usize> = HashSet::new();
-        // the diagonals this pass's turns make: `by_edge` is of the pass's
-        // start, so two turns could otherwise make one edge twice, an edge
-        // in four triangles (rp_7_020 of the random parts: two dimples'
-        // coarse spheres, refused as "the boundary is not closed")
-        let mut made: HashSet<(u32, u32)> = HashSet::new();
+        let mut turns = PassTurns::default();
         let mut flips: Vec<(usize, [u32; 3], usize, [u32; 3])> = Vec::new();
         for &k in idx {
-            if touched.contains(&k) || !missing(mesh, k) {
+            if turns.touched(k) || !missing(mesh, k) {
                 continue;
             }
             for i in 0..3 {
-                let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
+                let Some(q) = Quad::across(mesh, &by_edge, &lines, &turns, k, i) else {
                     continue;
                 };
                 let (m, [t1, t2]) = (q.m, q.turned());
                 if !delaunay.contains(&sorted3(t1)) || !delaunay.contains(&sorted3(t2)) {
                     continue;
                 }
-                if !q.turn_keeps_facing(mesh) || made.contains(&key(q.c, q.d)) {
+                if !q.turn_keeps_facing(mesh) {
                     continue;
                 }
-                made.insert(key(q.c, q.d));
-                touched.insert(k);
-                touched.insert(m);
+                turns.record(k, &q);
                 flips.push((k, t1, m, t2));
                 break;
             }
@@ -360,9 +380,7 @@ pub(crate) fn turn_flat_quads(
         .collect();
     let lines = mesh_lines(mesh);
     let by_edge = by_edge(mesh, idx.iter().copied());
-    let mut touched: HashSet<usize> = HashSet::new();
-    // the diagonals made here (`by_edge` is of the start; see `flip_with`)
-    let mut made: HashSet<(u32, u32)> = HashSet::new();
+    let mut turns = PassTurns::default();
     let mut removed = Vec::new();
     for &ti in flat {
         let g = tets[ti].map(|k| global[k as usize]);
@@ -378,22 +396,16 @@ pub(crate) fn turn_flat_quads(
         let Some(i) = (0..3).find(|&i| u.contains(&t[i]) && u.contains(&t[(i + 1) % 3])) else {
             continue;
         };
-        let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
+        let Some(q) = Quad::across(mesh, &by_edge, &lines, &turns, k, i) else {
             continue;
         };
-        if q.m != m
-            || touched.contains(&k)
-            || made.contains(&key(q.c, q.d))
-            || !q.turn_keeps_facing(mesh)
-        {
+        if q.m != m || turns.touched(k) || !q.turn_keeps_facing(mesh) {
             continue;
         }
-        made.insert(key(q.c, q.d));
+        turns.record(k, &q);
         let [t1, t2] = q.turned();
         mesh.triangles[k].nodes = t1;
         mesh.triangles[m].nodes = t2;
-        touched.insert(k);
-        touched.insert(m);
         removed.push(ti);
     }
     removed

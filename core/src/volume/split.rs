@@ -28,7 +28,8 @@
 //! ([`crate::engine::refine`]), as before.
 
 use super::recover::{
-    by_edge, earlier_faces, key, mesh_lines, sorted3, triangles_of, BoundaryDelaunay, Quad,
+    by_edge, earlier_faces, key, mesh_lines, sorted3, triangles_of, BoundaryDelaunay, PassTurns,
+    Quad,
 };
 use crate::geom::P3;
 use crate::mesh::{Element, Mesh, Node};
@@ -243,17 +244,14 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
     let pos = |mesh: &Mesh, g: u32| mesh.nodes[g as usize].pos;
     for _ in 0..LAWSON_PASSES {
         let by_edge = by_edge(mesh, idx.iter().copied());
-        let mut touched: HashSet<usize> = HashSet::new();
-        // the edges this pass made (`by_edge` is of the pass's start; see
-        // `recover::flip_with`)
-        let mut made: HashSet<(u32, u32)> = HashSet::new();
+        let mut turns = PassTurns::default();
         let mut turned = 0;
         for &k in &idx {
-            if touched.contains(&k) {
+            if turns.touched(k) {
                 continue;
             }
             for i in 0..3 {
-                let Some(q) = Quad::across(mesh, &by_edge, &lines, &touched, k, i) else {
+                let Some(q) = Quad::across(mesh, &by_edge, &lines, &turns, k, i) else {
                     continue;
                 };
                 let angle = |o: u32, p: u32, r: u32| {
@@ -263,15 +261,13 @@ fn lawson_flips(mesh: &mut Mesh, faces: &HashSet<u32>) {
                 if angle(q.c, q.a, q.b) + angle(q.d, q.b, q.a) <= std::f64::consts::PI + 1e-9 {
                     continue;
                 }
-                if made.contains(&key(q.c, q.d)) || !q.turn_keeps_facing(mesh) {
+                if !q.turn_keeps_facing(mesh) {
                     continue;
                 }
-                made.insert(key(q.c, q.d));
+                turns.record(k, &q);
                 let (m, [t1, t2]) = (q.m, q.turned());
                 mesh.triangles[k].nodes = t1;
                 mesh.triangles[m].nodes = t2;
-                touched.insert(k);
-                touched.insert(m);
                 turned += 1;
                 break;
             }
