@@ -40,11 +40,11 @@
 //! ratio 0.747, Gmsh 0.798; graded 0.85). `n` = 0 turns both off.
 //!
 //! Cusps keep the requested spacing: where two edges of a face leave a
-//! vertex tangentially (`cusp_ends`), the vertex and those edges within
-//! the requested spacing of it are not graded, because nodes close to
-//! such a tip make its triangles thinner, not better (see
-//! `CirclePoints::at_cusp`). Only where both edges are at least the
-//! spacing long.
+//! vertex tangentially or nearly so (`cusp_ends`, within [`CUSP_ANGLE`]),
+//! the vertex and those edges within the requested spacing of it are not
+//! graded, because nodes close to such a tip make its triangles thinner,
+//! not better (see `CirclePoints::at_cusp`). Only where both edges are at
+//! least the spacing long.
 //!
 //! A face the graded spacing cannot mesh is released
 //! ([`CirclePoints::release`]): on it, its edges and their vertices the
@@ -200,8 +200,15 @@ fn cusps(model: &Model, inner: &dyn Spacing) -> (Vec<Vec<P3>>, Vec<bool>) {
     (cusp_edges, cusp_vertices)
 }
 
-/// Tangents at most this far apart (radians) make a cusp ([`cusp_ends`]).
-pub(crate) const CUSP_ANGLE: f64 = 0.05;
+/// Tangents at most this far apart (radians, 8.6°) make a cusp
+/// ([`cusp_ends`]). The tip's triangle has the angle θ + s·Δκ/2 between
+/// the chords to the first nodes at distance s (θ the tangents' angle, Δκ
+/// the curves' difference of curvature), so while θ is small the first
+/// nodes' distance decides it: as_0087's 6.8° tip between a line and a
+/// capped fillet edge gave 7.9° with the fillet's spacing there (first
+/// nodes 1.8 from the tip) and 13.4° with the requested one (Gmsh 10.8°);
+/// at 0.05 rad only tangent tips (as_0042) were cusps.
+pub(crate) const CUSP_ANGLE: f64 = 0.15;
 
 /// A point of a capped edge and the spacing there.
 #[derive(Clone, Copy, Debug)]

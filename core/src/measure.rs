@@ -71,6 +71,26 @@ pub fn radius_ratio_of_lengths(la: f64, lb: f64, lc: f64) -> f64 {
     clip01((lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc))
 }
 
+/// The smallest angle (radians) of a triangle with sides `la`, `lb`, `lc`:
+/// the one opposite the shortest side, by the law of cosines.
+pub fn min_angle_of_lengths(la: f64, lb: f64, lc: f64) -> f64 {
+    let (a, b, c) = if la <= lb && la <= lc {
+        (la, lb, lc)
+    } else if lb <= lc {
+        (lb, lc, la)
+    } else {
+        (lc, la, lb)
+    };
+    ((b * b + c * c - a * a) / (2.0 * b * c))
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
+/// The smallest angle (radians) of the triangle (a, b, c).
+pub fn triangle_min_angle(a: &P3, b: &P3, c: &P3) -> f64 {
+    min_angle_of_lengths((c - b).norm(), (a - c).norm(), (b - a).norm())
+}
+
 /// Signed radius ratio of a tetrahedron, 3·r_in/r_circ: 1 for a regular
 /// tetrahedron, 0 for a flat one, in (0, 1] for a positive tetrahedron and
 /// its negative for an inverted one. Dimensionless.

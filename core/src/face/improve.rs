@@ -68,6 +68,15 @@ pub struct ImproveParams {
     pub band_hi: f64,
     /// See `band_lo`.
     pub band_weight: f64,
+    /// [`lift_angle`] moves the free corners of triangles whose smallest
+    /// angle is within this many radians of the face's smallest.
+    pub angle_margin: f64,
+    /// ... letting the sum of the radius ratios around a moved bubble fall
+    /// by at most this much (and its smallest not at all).
+    pub angle_slack: f64,
+    /// ... and only the corners of this many of the face's triangles with
+    /// the smallest angles per round.
+    pub angle_count: usize,
 }
 
 impl ImproveParams {
@@ -80,6 +89,9 @@ impl ImproveParams {
         band_lo: 0.76,
         band_hi: 1.32,
         band_weight: 10.0,
+        angle_margin: 3.0 * std::f64::consts::PI / 180.0,
+        angle_slack: 0.01,
+        angle_count: 4,
     };
 }
 
@@ -147,6 +159,48 @@ fn undirected(constraints: &[[usize; 2]]) -> HashSet<(usize, usize)> {
         .iter()
         .map(|e| (e[0].min(e[1]), e[0].max(e[1])))
         .collect()
+}
+
+/// The last pass of a face, `rounds` times: the free corners of the
+/// triangles whose smallest angle is within
+/// [`ImproveParams::angle_margin`] of the face's smallest (and below 45°)
+/// are moved (the pattern search of [`lift_bubbles`]) to raise the
+/// smallest angle around them, never lowering the smallest radius ratio
+/// there and the sum by at most [`ImproveParams::angle_slack`]; then
+/// flips. The radius-ratio objectives leave the smallest angle where a
+/// kink of their max–min stops the search (a cube corner's 38° on
+/// as_wavy-cube, docs/decisions.md session 36).
+pub fn lift_angle<C: Carrier>(
+    sys: &mut System<'_, C>,
+    tris: &mut [[usize; 3]],
+    constraints: &[[usize; 2]],
+    rounds: usize,
+) -> Result<(), MeshError> {
+    let fixed = undirected(constraints);
+    for _ in 0..rounds {
+        let mut angles: Vec<f64> = tris
+            .iter()
+            .map(|t| {
+                crate::measure::triangle_min_angle(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]])
+            })
+            .collect();
+        if angles.is_empty() {
+            break;
+        }
+        let k = PRM.angle_count.min(angles.len()) - 1;
+        let (_, kth, _) = angles.select_nth_unstable_by(k, f64::total_cmp);
+        let kth = *kth;
+        let least = angles.iter().copied().fold(f64::INFINITY, f64::min);
+        let below = (least + PRM.angle_margin)
+            .min(std::f64::consts::FRAC_PI_4)
+            .min(kth.next_up());
+        let moved = lift_bubbles(sys, tris, Lift::Angle, below, 0.0, None)?;
+        if moved.is_empty() {
+            break;
+        }
+        delaunay_flips(sys, tris, &fixed, &moved);
+    }
+    Ok(())
 }
 
 /// More rounds of [`Lift::Mean`] over the bubbles of every triangle below
@@ -360,6 +414,10 @@ enum Lift {
     /// Their sum, the smallest kept at least min(its value, `lift_q`)
     /// (bubbles of triangles below `mean_q`).
     Mean,
+    /// The smallest angle of the bubble's triangles (radians), the
+    /// smallest radius ratio kept at least its value (bubbles of the
+    /// triangles whose smallest angle is below `below`, in radians).
+    Angle,
 }
 
 /// For each free bubble at a corner of a triangle below `lift_q` (or
@@ -381,7 +439,11 @@ fn lift_bubbles<C: Carrier>(
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); n];
     let mut poor = vec![false; n];
     for (ti, t) in tris.iter().enumerate() {
-        let q = radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]);
+        let (a, b, c) = (&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]]);
+        let q = match lift {
+            Lift::Angle => crate::measure::triangle_min_angle(a, b, c),
+            _ => radius_ratio(a, b, c),
+        };
         for &v in t {
             incident[v].push(ti);
             if q < below {
@@ -401,55 +463,55 @@ fn lift_bubbles<C: Carrier>(
         if !poor[i] || movable.is_some_and(|m| !m[i]) {
             continue;
         }
-        let mut floor = f64::NEG_INFINITY;
         ring.gather(sys, tris, &incident[i], i);
         // the objective; -1 for an inverted triangle or, lifting the mean,
         // a smallest radius ratio below the floor
-        let worst_at =
-            |sys: &System<'_, C>, ring: &mut Ring, p: &P3, uv: [f64; 2], floor: f64| -> f64 {
-                if !ring.oriented(sys, i, p, uv) {
-                    return -1.0;
+        let worst_at = |sys: &System<'_, C>,
+                        ring: &mut Ring,
+                        p: &P3,
+                        uv: [f64; 2],
+                        floor: f64,
+                        floor_sum: f64|
+         -> f64 {
+            if !ring.oriented(sys, i, p, uv) {
+                return -1.0;
+            }
+            ring.measure(sys, p);
+            let (mut w, mut sum, mut angle) = (f64::INFINITY, 0.0, f64::INFINITY);
+            for r in &ring.tris {
+                let q = ring.radius_ratio(r);
+                w = w.min(q);
+                sum += q;
+                if lift == Lift::Angle {
+                    angle = angle.min(ring.min_angle(r));
                 }
-                ring.measure(sys, p);
-                let (mut w, mut sum) = (f64::INFINITY, 0.0);
-                for r in &ring.tris {
-                    let q = ring.radius_ratio(r);
-                    w = w.min(q);
-                    sum += q;
-                    if band > 0.0 {
-                        // each edge at i is in two of its triangles: half weight per triangle;
-                        // inside the band the penalty is zero, so the logarithm (the
-                        // costliest part of a trial, 6 % of case B) is taken outside only
-                        for (k, &j) in r.t.iter().enumerate() {
-                            if j != i {
-                                let l = ring.len[r.slot[k]] / (0.5 * (sys.d[i] + sys.d[j]));
-                                if (PRM.band_lo..=PRM.band_hi).contains(&l) {
-                                    continue;
-                                }
-                                let r = l.ln();
-                                let out = (r - ln_hi).max(0.0) + (ln_lo - r).max(0.0);
-                                sum -= 0.5 * band * out * out;
+                if band > 0.0 {
+                    // each edge at i is in two of its triangles: half weight per triangle;
+                    // inside the band the penalty is zero, so the logarithm (the
+                    // costliest part of a trial, 6 % of case B) is taken outside only
+                    for (k, &j) in r.t.iter().enumerate() {
+                        if j != i {
+                            let l = ring.len[r.slot[k]] / (0.5 * (sys.d[i] + sys.d[j]));
+                            if (PRM.band_lo..=PRM.band_hi).contains(&l) {
+                                continue;
                             }
+                            let r = l.ln();
+                            let out = (r - ln_hi).max(0.0) + (ln_lo - r).max(0.0);
+                            sum -= 0.5 * band * out * out;
                         }
                     }
                 }
-                match lift {
-                    Lift::Worst => w,
-                    Lift::Mean if w < floor => -1.0,
-                    Lift::Mean => sum,
-                }
-            };
-        if lift == Lift::Mean {
-            let w = incident[i]
-                .iter()
-                .map(|&ti| {
-                    let t = tris[ti];
-                    radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]])
-                })
-                .fold(f64::INFINITY, f64::min);
-            floor = w.min(PRM.lift_q);
-        }
-        let mut best = worst_at(sys, &mut ring, &sys.pos[i], sys.params[i], floor);
+            }
+            match lift {
+                Lift::Worst => w,
+                Lift::Angle if sum < floor_sum => -1.0,
+                Lift::Mean | Lift::Angle if w < floor => -1.0,
+                Lift::Mean => sum,
+                Lift::Angle => angle,
+            }
+        };
+        let (floor, floor_sum) = floors(sys, tris, &incident[i], lift);
+        let mut best = worst_at(sys, &mut ring, &sys.pos[i], sys.params[i], floor, floor_sum);
         let start = best;
         let mut step = 0.15 * sys.d[i];
         // the frame changes only where the bubble moved
@@ -465,7 +527,7 @@ fn lift_bubbles<C: Carrier>(
                 else {
                     continue;
                 };
-                let w = worst_at(sys, &mut ring, &p, uv, floor);
+                let w = worst_at(sys, &mut ring, &p, uv, floor, floor_sum);
                 if w > best + 1e-12 {
                     best = w;
                     sys.pos[i] = p;
@@ -487,6 +549,29 @@ fn lift_bubbles<C: Carrier>(
         }
     }
     Ok(moved)
+}
+
+/// The least value of the smallest radius ratio and of the sum of the
+/// radius ratios around a bubble (its triangles `incident`) that a move
+/// may leave, for [`lift_bubbles`]: lifting the mean, the smallest kept at
+/// min(its value, `lift_q`); lifting the angle, the smallest kept and the
+/// sum kept within `angle_slack`; lifting the worst, no bound.
+fn floors<C: Carrier>(
+    sys: &System<'_, C>,
+    tris: &[[usize; 3]],
+    incident: &[usize],
+    lift: Lift,
+) -> (f64, f64) {
+    let qs = incident.iter().map(|&ti| {
+        let t = tris[ti];
+        radius_ratio(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]])
+    });
+    let least = || qs.clone().fold(f64::INFINITY, f64::min);
+    match lift {
+        Lift::Worst => (f64::NEG_INFINITY, f64::NEG_INFINITY),
+        Lift::Mean => (least().min(PRM.lift_q), f64::NEG_INFINITY),
+        Lift::Angle => (least(), qs.clone().sum::<f64>() - PRM.angle_slack),
+    }
 }
 
 /// A bubble's triangles for [`lift_bubbles`]' trials: the bubble moves,
@@ -569,6 +654,17 @@ impl Ring {
         for (l, &j) in self.len.iter_mut().zip(&self.nodes) {
             *l = (sys.pos[j] - p).norm();
         }
+    }
+
+    /// The smallest angle of `r` (radians) from the measured lengths.
+    fn min_angle(&self, r: &RingTri) -> f64 {
+        let s = |k: usize| self.len[r.slot[k]];
+        let (la, lb, lc) = match r.at {
+            0 => (r.opposite, s(2), s(1)),
+            1 => (s(2), r.opposite, s(0)),
+            _ => (s(1), s(0), r.opposite),
+        };
+        crate::measure::min_angle_of_lengths(la, lb, lc)
     }
 
     /// [`radius_ratio`] of `r` from the measured lengths.
@@ -692,6 +788,57 @@ mod tests {
             .collect();
         let min = q.iter().copied().fold(f64::INFINITY, f64::min);
         (min, q.iter().sum::<f64>() / q.len() as f64)
+    }
+
+    fn least_angle(sys: &System<'_, impl Carrier>, tris: &[[usize; 3]]) -> f64 {
+        tris.iter()
+            .map(|t| {
+                crate::measure::triangle_min_angle(&sys.pos[t[0]], &sys.pos[t[1]], &sys.pos[t[2]])
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// After the improvement's radius-ratio lifts, the angle lift still
+    /// raises the smallest angle of a jittered lattice, without lowering the
+    /// smallest radius ratio, lowering the mean by more than its slack
+    /// allows, or turning a triangle over.
+    #[test]
+    fn the_angle_lift_raises_the_smallest_angle_the_ratio_lifts_left() {
+        let s = Constant(0.1);
+        let mut sys = square_system(&s);
+        let nf = sys.n_fixed;
+        hex_fill(&mut sys, 0.1, 0.1, |_, _| false);
+        let mut uniform = crate::bubbles::testing::uniform(0x2545_f491_4f6c_dd1d);
+        let mut jitter = || (uniform() - 0.5) * 0.05;
+        for i in nf..sys.n() {
+            let (dx, dy) = (jitter(), jitter());
+            sys.params[i] = [sys.params[i][0] + dx, sys.params[i][1] + dy];
+            sys.pos[i] = P3::new(sys.params[i][0], sys.params[i][1], 0.0);
+        }
+        let boundary: Vec<[usize; 2]> = (0..nf).map(|k| [k, (k + 1) % nf]).collect();
+        let mut tris = triangulate(&sys.params, &boundary, &boundary, |c| {
+            (0.0..=1.0).contains(&c[0]) && (0.0..=1.0).contains(&c[1])
+        })
+        .unwrap();
+        improve(&mut sys, &mut tris, &boundary, 6).unwrap();
+        let (min0, mean0) = quality(&sys, &tris);
+        let angle0 = least_angle(&sys, &tris);
+        lift_angle(&mut sys, &mut tris, &boundary, 3).unwrap();
+        let (min1, mean1) = quality(&sys, &tris);
+        let angle1 = least_angle(&sys, &tris);
+        assert!(
+            angle1 > angle0 + 1e-3,
+            "smallest angle {}° -> {}°",
+            angle0.to_degrees(),
+            angle1.to_degrees()
+        );
+        assert!(min1 >= min0, "worst radius ratio {min0} -> {min1}");
+        let budget = 3.0 * 3.0 * PRM.angle_count as f64 * PRM.angle_slack / tris.len() as f64;
+        assert!(mean1 >= mean0 - budget, "mean {mean0} -> {mean1}");
+        for t in &tris {
+            let [a, b, c] = t.map(|k| sys.params[k]);
+            assert!(orient_uv(a, b, c) > 0.0, "triangle {t:?} turned over");
+        }
     }
 
     /// On a jittered lattice in the unit square, the improvement raises

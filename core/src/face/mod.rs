@@ -75,6 +75,9 @@ pub(crate) struct FaceParams {
     pub lattice_mean_q: f64,
     /// See `lattice_mean_q`.
     pub lattice_mean_rounds: usize,
+    /// Rounds of the last pass, which raises the face's smallest angles
+    /// ([`improve::lift_angle`]).
+    pub angle_rounds: usize,
 }
 
 /// Smaller cap radii (in spacings) for a curved face whose caps of
@@ -93,6 +96,7 @@ impl FaceParams {
         improve_rounds: 6,
         lattice_mean_q: 0.999,
         lattice_mean_rounds: 10,
+        angle_rounds: 3,
     };
 }
 
@@ -371,6 +375,11 @@ pub(crate) fn mesh_face(
     }
     let lattice_s = t_lattice.elapsed().as_secs_f64();
     timings.lattice_s += lattice_s;
+    // (a face that bounds a volume keeps its triangles as the volume's
+    // boundary needs them: its smallest angle is not the mesh's)
+    if !inputs.opts.fast && !job.bounds_volume {
+        improve::lift_angle(&mut sys, &mut tris, &boundary.segments, PRM.angle_rounds)?;
+    }
     let out = job.emit(&sys, &tris);
     fr.bubbles = out.nodes.len() - out.kept;
     fr.triangles = tris.len();
