@@ -317,3 +317,21 @@ fn two_turns_of_one_pass_do_not_make_one_edge_twice() {
         0.2,
     );
 }
+
+/// A spherical dimple (r 3.9) with a hole drilled through it whose edge
+/// passes 0.5 from the sphere's pole: the cap at the pole, connected in
+/// its tangent plane with the hole's nodes around it, did not close at any
+/// spacing, and the part was refused after eight rounds of refinement as
+/// tetrahedra (where Gmsh meshes it; as surfaces a face refined to half
+/// the spacing). The sphere is now turned so that its poles are far from
+/// every loop, and it meshes at the size asked.
+#[test]
+fn a_dimple_whose_pole_is_near_a_holes_edge_is_turned() {
+    check_part(
+        "dimple_pole_near_hole.step",
+        78.8084,
+        &[(7, 64.925)],
+        8890.6682,
+        0.2,
+    );
+}
