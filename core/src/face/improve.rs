@@ -170,8 +170,8 @@ fn undirected(constraints: &[[usize; 2]]) -> HashSet<(usize, usize)> {
 /// [`ImproveParams::angle_margin`] of the face's smallest (and below 45°)
 /// are moved (the pattern search of [`lift_bubbles`]) to raise the
 /// smallest angle around them, never lowering the smallest radius ratio
-/// there and the sum by at most [`ImproveParams::angle_slack`]; then
-/// flips. The radius-ratio objectives leave the smallest angle where a
+/// there, the sum by at most [`ImproveParams::angle_slack`], nor moving an
+/// edge out of the spacing band [1/√2, √2]; then flips. The radius-ratio objectives leave the smallest angle where a
 /// kink of their max–min stops the search (a cube corner's 38° on
 /// as_wavy-cube, docs/decisions.md session 36).
 pub fn lift_angle<C: Carrier>(
@@ -475,12 +475,16 @@ fn lift_bubbles<C: Carrier>(
                         p: &P3,
                         uv: [f64; 2],
                         floor: f64,
-                        floor_sum: f64|
+                        floor_sum: f64,
+                        most_out: usize|
          -> f64 {
             if !ring.oriented(sys, i, p, uv) {
                 return -1.0;
             }
             ring.measure(sys, p);
+            if lift == Lift::Angle && ring.out_of_band(sys, i) > most_out {
+                return -1.0;
+            }
             let (mut w, mut sum, mut angle) = (f64::INFINITY, 0.0, f64::INFINITY);
             for r in &ring.tris {
                 let q = ring.radius_ratio(r);
@@ -515,7 +519,19 @@ fn lift_bubbles<C: Carrier>(
             }
         };
         let (floor, floor_sum) = floors(sys, tris, &incident[i], lift);
-        let mut best = worst_at(sys, &mut ring, &sys.pos[i], sys.params[i], floor, floor_sum);
+        // lifting the angle, no more of the bubble's edges may leave the
+        // spacing band [1/√2, √2] than are outside it now
+        ring.measure(sys, &sys.pos[i]);
+        let most_out = ring.out_of_band(sys, i);
+        let mut best = worst_at(
+            sys,
+            &mut ring,
+            &sys.pos[i],
+            sys.params[i],
+            floor,
+            floor_sum,
+            most_out,
+        );
         let start = best;
         let mut step = 0.15 * sys.d[i];
         // the frame changes only where the bubble moved
@@ -531,7 +547,7 @@ fn lift_bubbles<C: Carrier>(
                 else {
                     continue;
                 };
-                let w = worst_at(sys, &mut ring, &p, uv, floor, floor_sum);
+                let w = worst_at(sys, &mut ring, &p, uv, floor, floor_sum, most_out);
                 if w > best + 1e-12 {
                     best = w;
                     sys.pos[i] = p;
@@ -658,6 +674,20 @@ impl Ring {
         for (l, &j) in self.len.iter_mut().zip(&self.nodes) {
             *l = (sys.pos[j] - p).norm();
         }
+    }
+
+    /// How many of the measured edges from bubble `i` have a length
+    /// outside [1/√2, √2] of the mean of their ends' spacings (the band a
+    /// mesher is judged by).
+    fn out_of_band<C: Carrier>(&self, sys: &System<'_, C>, i: usize) -> usize {
+        self.nodes
+            .iter()
+            .zip(&self.len)
+            .filter(|&(&j, &l)| {
+                let r = l / (0.5 * (sys.d[i] + sys.d[j]));
+                !(std::f64::consts::FRAC_1_SQRT_2..=std::f64::consts::SQRT_2).contains(&r)
+            })
+            .count()
     }
 
     /// The smallest angle of `r` (radians) from the measured lengths.
