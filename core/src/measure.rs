@@ -71,8 +71,30 @@ pub fn radius_ratio_of_lengths(la: f64, lb: f64, lc: f64) -> f64 {
     clip01((lb + lc - la) * (lc + la - lb) * (la + lb - lc) / (la * lb * lc))
 }
 
-/// The smallest angle (radians) of a triangle with sides `la`, `lb`, `lc`:
-/// the one opposite the shortest side, by the law of cosines.
+/// The angles (radians) of triangle (a, b, c) at a, b and c: the first two
+/// by atan2 of the edges' cross and dot products (exact near 0 and π,
+/// where the law of cosines loses digits), the third π minus them. The
+/// quality report and the angle lift of the 2D improvement both read them
+/// from here.
+pub fn triangle_angles(a: &P3, b: &P3, c: &P3) -> [f64; 3] {
+    let (ab, bc, ca) = (b - a, c - b, a - c);
+    let ang = |u: &V3, v: &V3| u.cross(v).norm().atan2(u.dot(v));
+    let at_a = ang(&ab, &(-ca));
+    let at_b = ang(&bc, &(-ab));
+    [at_a, at_b, std::f64::consts::PI - at_a - at_b]
+}
+
+/// The smallest of [`triangle_angles`] (radians).
+pub fn triangle_min_angle(a: &P3, b: &P3, c: &P3) -> f64 {
+    let [x, y, z] = triangle_angles(a, b, c);
+    x.min(y).min(z)
+}
+
+/// The smallest angle (radians) of a triangle given by its side lengths
+/// `la`, `lb`, `lc` (the one opposite the shortest side, by the law of
+/// cosines): [`triangle_min_angle`] for a caller that has the lengths and
+/// not the corners (the angle lift's trials, which measure each
+/// neighbour's distance once).
 pub fn min_angle_of_lengths(la: f64, lb: f64, lc: f64) -> f64 {
     let (a, b, c) = if la <= lb && la <= lc {
         (la, lb, lc)
@@ -84,11 +106,6 @@ pub fn min_angle_of_lengths(la: f64, lb: f64, lc: f64) -> f64 {
     ((b * b + c * c - a * a) / (2.0 * b * c))
         .clamp(-1.0, 1.0)
         .acos()
-}
-
-/// The smallest angle (radians) of the triangle (a, b, c).
-pub fn triangle_min_angle(a: &P3, b: &P3, c: &P3) -> f64 {
-    min_angle_of_lengths((c - b).norm(), (a - c).norm(), (b - a).norm())
 }
 
 /// Signed radius ratio of a tetrahedron, 3·r_in/r_circ: 1 for a regular

@@ -638,10 +638,7 @@ fn triangle_shape(a: &P3, b: &P3, c: &P3) -> (f64, f64, f64, f64) {
     let (ab, bc, ca) = (b - a, c - b, a - c);
     let (la, lb, lc) = (bc.norm(), ca.norm(), ab.norm());
     let area = 0.5 * ab.cross(&(-ca)).norm();
-    let ang = |u: &V3, v: &V3| u.cross(v).norm().atan2(u.dot(v));
-    let aa = ang(&ab, &(-ca));
-    let ab_ = ang(&bc, &(-ab));
-    let ac = std::f64::consts::PI - aa - ab_;
+    let [aa, ab_, ac] = crate::measure::triangle_angles(a, b, c);
     let q = crate::measure::triangle_radius_ratio(a, b, c);
     if is_degenerate(la, lb, lc, area) {
         // coincident or collinear corners: no meaningful third angle (π

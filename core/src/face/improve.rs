@@ -171,9 +171,10 @@ fn undirected(constraints: &[[usize; 2]]) -> HashSet<(usize, usize)> {
 /// are moved (the pattern search of [`lift_bubbles`]) to raise the
 /// smallest angle around them, never lowering the smallest radius ratio
 /// there, the sum by at most [`ImproveParams::angle_slack`], nor moving an
-/// edge out of the spacing band [1/√2, √2]; then flips. The radius-ratio objectives leave the smallest angle where a
-/// kink of their max–min stops the search (a cube corner's 38° on
-/// as_wavy-cube, docs/decisions.md session 36).
+/// edge out of the spacing band [1/√2, √2]; then flips. The radius-ratio
+/// objectives leave the smallest angle where a kink of their max–min stops
+/// the search (a cube corner's 38° on as_wavy-cube, docs/decisions.md
+/// session 36).
 pub fn lift_angle<C: Carrier>(
     sys: &mut System<'_, C>,
     tris: &mut [[usize; 3]],
@@ -192,9 +193,9 @@ pub fn lift_angle<C: Carrier>(
             break;
         }
         let k = PRM.angle_count.min(angles.len()) - 1;
-        let (_, kth, _) = angles.select_nth_unstable_by(k, f64::total_cmp);
+        let (fewer, kth, _) = angles.select_nth_unstable_by(k, f64::total_cmp);
         let kth = *kth;
-        let least = angles.iter().copied().fold(f64::INFINITY, f64::min);
+        let least = fewer.iter().copied().fold(kth, f64::min);
         let below = (least + PRM.angle_margin)
             .min(std::f64::consts::FRAC_PI_4)
             .min(kth.next_up());
@@ -521,8 +522,12 @@ fn lift_bubbles<C: Carrier>(
         let (floor, floor_sum) = floors(sys, tris, &incident[i], lift);
         // lifting the angle, no more of the bubble's edges may leave the
         // spacing band [1/√2, √2] than are outside it now
-        ring.measure(sys, &sys.pos[i]);
-        let most_out = ring.out_of_band(sys, i);
+        let most_out = if lift == Lift::Angle {
+            ring.measure(sys, &sys.pos[i]);
+            ring.out_of_band(sys, i)
+        } else {
+            usize::MAX
+        };
         let mut best = worst_at(
             sys,
             &mut ring,
