@@ -335,3 +335,45 @@ fn a_dimple_whose_pole_is_near_a_holes_edge_is_turned() {
         0.2,
     );
 }
+
+/// A void (r 2.45) cut by a drill (r 2.61) whose axis passes 4.65 from its
+/// centre: the sphere less the drill's cap, with a `VERTEX_LOOP` at its
+/// pole. At diag/25 (d = 3.67) its connection left a gap beside a
+/// tangent-plane cap, which only the final check caught; refined eight
+/// times, the part was refused ("too coarsely sampled"), where Gmsh meshes
+/// it. A connection that does not cover the face once is now refused on
+/// the spot, and the smaller caps connect it at the size asked.
+#[test]
+fn a_void_cut_by_a_drill_is_connected_without_a_gap() {
+    check_part(
+        "void_cut_by_drill.step",
+        91.6737,
+        &[(17, 70.6953)],
+        14610.3856,
+        0.2,
+    );
+}
+
+/// The smallest angle of the mesh's triangles, in degrees.
+fn smallest_angle(m: &Mesh) -> f64 {
+    m.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.nodes.map(|k| m.nodes[k as usize].pos);
+            bubblemesh_core::measure::triangle_min_angle(&a, &b, &c).to_degrees()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A counterbore's circle passes 0.645 from a hole's on the top face
+/// (d = 1.87 at diag/25): the triangle across the neck had its apex a
+/// spacing away, 16.9° (Gmsh 4.15.2: 25.4°). The skinny triangles of a
+/// planar face are now split at their circumcentres.
+#[test]
+fn a_neck_between_two_holes_is_split_at_its_circumcentre() {
+    let d = 46.8231 / 25.0;
+    let m = mesh("neck_between_holes.step", d, 2);
+    assert_closed_and_referenced(&m, "neck_between_holes.step --dim 2");
+    let least = smallest_angle(&m);
+    assert!(least > 25.5, "smallest angle {least}°");
+}

@@ -942,6 +942,30 @@ fn first_unclosed<'s>(tris: &[[usize; 3]], segments: &'s [[usize; 2]]) -> Option
         .find(|s| uses.get(&(s[0].min(s[1]), s[0].max(s[1]))) != Some(&1))
 }
 
+/// The first edge of `tris` not in as many triangles as a closed cover of
+/// the face needs: one per loop segment of `directed` along it (a seam's
+/// two, one each way), two elsewhere (embedded edges too). A connection
+/// that fails it has a gap or an overlap the final check would refuse.
+pub(crate) fn first_gap(tris: &[[usize; 3]], directed: &[[usize; 2]]) -> Option<[usize; 2]> {
+    let key = |a: usize, b: usize| (a.min(b), a.max(b));
+    let mut needed: HashMap<(usize, usize), u32> = HashMap::new();
+    for s in directed {
+        *needed.entry(key(s[0], s[1])).or_default() += 1;
+    }
+    let mut uses: HashMap<(usize, usize), u32> = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            *uses.entry(key(t[k], t[(k + 1) % 3])).or_default() += 1;
+        }
+    }
+    // the least such edge, not the first of a hash map's order: the error
+    // message is the same from run to run
+    uses.iter()
+        .filter(|(e, &n)| n != needed.get(e).copied().unwrap_or(2))
+        .map(|(e, _)| [e.0, e.1])
+        .min()
+}
+
 /// Signed area of a triangle of `uv` (positive when counter-clockwise).
 #[cfg(test)]
 fn signed_area(uv: &[[f64; 2]], t: [usize; 3]) -> f64 {
@@ -1371,5 +1395,27 @@ mod classification {
             }
         }
         assert_eq!(n as i64 - edges.len() as i64 + t.len() as i64, 1);
+    }
+
+    /// A square of four boundary nodes and a centre: four triangles cover
+    /// it once; without one the centre's edges to its corners are in one
+    /// triangle (a gap), and a fifth triangle over one makes an edge of
+    /// three (an overlap). A seam segment used both ways needs two.
+    #[test]
+    fn a_gap_or_an_overlap_is_found_and_a_seam_is_not() {
+        let directed = [[0, 1], [1, 2], [2, 3], [3, 0]];
+        let fan = vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        assert_eq!(first_gap(&fan, &directed), None);
+        assert!(first_gap(&fan[..3], &directed).is_some(), "a gap");
+        let mut over = fan.clone();
+        over.push([0, 1, 2]);
+        assert!(first_gap(&over, &directed).is_some(), "an overlap");
+        // 0-1 a seam: the loop runs along it both ways, a triangle each side
+        let seam = [[0, 1], [1, 2], [2, 0], [1, 0], [0, 3], [3, 1]];
+        assert_eq!(first_gap(&[[0, 1, 2], [1, 0, 3]], &seam), None);
+        assert!(
+            first_gap(&[[0, 1, 2]], &seam).is_some(),
+            "a seam in one triangle"
+        );
     }
 }
