@@ -15,6 +15,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::process::Command;
 
+mod support;
+
 fn realstep(name: &str) -> Option<PathBuf> {
     let dir = std::env::var("BUBBLEMESH_REALSTEP").unwrap_or_else(|_| {
         concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/realstep").to_string()
@@ -189,18 +191,7 @@ fn places_that_keep_failing_a_level_finer_stop_at_the_growth_bound() {
 fn surface_angle(name: &str, size: &str) -> Option<f64> {
     let (m, _) = mesh(&realstep(name)?, size, "2");
     assert_closed_and_oriented(&m);
-    Some(smallest_angle(&m))
-}
-
-/// The smallest angle of the mesh's triangles, in degrees.
-fn smallest_angle(m: &bubblemesh_core::Mesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.nodes.map(|k| m.nodes[k as usize].pos);
-            bubblemesh_core::measure::triangle_min_angle(&a, &b, &c).to_degrees()
-        })
-        .fold(f64::INFINITY, f64::min)
+    Some(support::smallest_angle(&m))
 }
 
 #[test]

@@ -354,17 +354,6 @@ fn a_void_cut_by_a_drill_is_connected_without_a_gap() {
     );
 }
 
-/// The smallest angle of the mesh's triangles, in degrees.
-fn smallest_angle(m: &Mesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.nodes.map(|k| m.nodes[k as usize].pos);
-            bubblemesh_core::measure::triangle_min_angle(&a, &b, &c).to_degrees()
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
 /// A counterbore's circle passes 0.645 from a hole's on the top face
 /// (d = 1.87 at diag/25): the triangle across the neck had its apex a
 /// spacing away, 16.9° (Gmsh 4.15.2: 25.4°). The skinny triangles of a
@@ -374,6 +363,6 @@ fn a_neck_between_two_holes_is_split_at_its_circumcentre() {
     let d = 46.8231 / 25.0;
     let m = mesh("neck_between_holes.step", d, 2);
     assert_closed_and_referenced(&m, "neck_between_holes.step --dim 2");
-    let least = smallest_angle(&m);
+    let least = support::smallest_angle(&m);
     assert!(least > 25.5, "smallest angle {least}°");
 }

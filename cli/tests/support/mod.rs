@@ -65,3 +65,14 @@ pub fn stderr(o: &Output) -> String {
 pub fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
+
+/// The smallest angle of the mesh's triangles, in degrees.
+pub fn smallest_angle(m: &bubblemesh_core::Mesh) -> f64 {
+    m.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.nodes.map(|k| m.nodes[k as usize].pos);
+            bubblemesh_core::measure::triangle_min_angle(&a, &b, &c).to_degrees()
+        })
+        .fold(f64::INFINITY, f64::min)
+}

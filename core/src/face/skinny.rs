@@ -75,11 +75,7 @@ fn least_angle_and_mean(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
         .map(|t| crate::measure::triangle_min_angle(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
         .fold(f64::INFINITY, f64::min)
         .to_degrees();
-    let mean = tris
-        .iter()
-        .map(|t| crate::face::improve::radius_ratio(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
-        .sum::<f64>()
-        / tris.len().max(1) as f64;
+    let mean = super::mean_and_least(pos, tris).0;
     (least, mean)
 }
 
