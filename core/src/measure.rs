@@ -64,6 +64,16 @@ pub fn triangle_radius_ratio(a: &P3, b: &P3, c: &P3) -> f64 {
     radius_ratio_of_lengths((c - b).norm(), (a - c).norm(), (b - a).norm())
 }
 
+/// The mean and the least [`triangle_radius_ratio`] of triangles `tris`
+/// (corner indices into `pos`); (0, +∞) for none.
+pub fn mean_and_least_radius_ratio(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
+    let (sum, least) = tris
+        .iter()
+        .map(|t| triangle_radius_ratio(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
+        .fold((0.0, f64::INFINITY), |(s, m), q| (s + q, m.min(q)));
+    (sum / tris.len().max(1) as f64, least)
+}
+
 /// [`triangle_radius_ratio`] from the edge lengths: `la` opposite the
 /// first corner, `lb` the second, `lc` the third.
 #[inline]

@@ -39,6 +39,7 @@ use crate::bubbles::constraint::{self, Carrier};
 use crate::bubbles::system::{self, RelaxStats, System};
 use crate::error::MeshError;
 use crate::geom::{P3, V3};
+use crate::measure::mean_and_least_radius_ratio as mean_and_least;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
 use crate::options::{Options, Timings};
@@ -450,16 +451,6 @@ impl Packing {
         sys.vel.extend(self.vel);
         sys.d.extend(self.d);
     }
-}
-
-/// The mean and the least radius ratio of triangles `tris` (corners in
-/// `pos`); (0, +∞) for none.
-fn mean_and_least(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
-    let (sum, least) = tris
-        .iter()
-        .map(|t| improve::radius_ratio(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
-        .fold((0.0, f64::INFINITY), |(s, m), q| (s + q, m.min(q)));
-    (sum / tris.len().max(1) as f64, least)
 }
 
 /// Whether a face meshed with (mean, least) radius ratios `new` is better

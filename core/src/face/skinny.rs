@@ -75,7 +75,7 @@ fn least_angle_and_mean(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
         .map(|t| crate::measure::triangle_min_angle(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
         .fold(f64::INFINITY, f64::min)
         .to_degrees();
-    let mean = super::mean_and_least(pos, tris).0;
+    let mean = crate::measure::mean_and_least_radius_ratio(pos, tris).0;
     (least, mean)
 }
 
