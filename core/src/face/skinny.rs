@@ -80,9 +80,9 @@ fn least_angle_and_mean(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
 }
 
 /// Splits the skinny triangles of planar face `sys` (connected as `tris`)
-/// at their circumcentres, at most [`SKINNY_ROUNDS`]
-/// times; `reconnect` connects and improves the bubbles again. Returns how
-/// many nodes were added (0 where no round was kept).
+/// at their circumcentres, at most [`SKINNY_ROUNDS`] times; `reconnect`
+/// connects and improves the bubbles again. Returns how many nodes were
+/// added (0 where no round was kept).
 pub(crate) fn split_skinny<'a>(
     sys: &mut System<'a, OnFace<'a>>,
     tris: &mut Vec<[usize; 3]>,
