@@ -313,23 +313,27 @@ pub(crate) fn face_from_loops_within(
             turn = Some((centre, radius, mean, false));
         }
     }
+    // the face read again on its sphere turned to `axis` (the loops, the
+    // embedded vertices and the name copied: only a turned face pays for
+    // it); an error where that sphere cannot be made
+    let read_turned = |centre: P3, radius: f64, axis: V3| {
+        let turned = bubblemesh_analytic::Frame::new(centre, axis)
+            .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))?;
+        Ok::<_, bubblemesh_analytic::surfaces::SurfaceError>(face_from_loops_within(
+            Arc::new(turned),
+            planar,
+            same_sense,
+            loops.clone(),
+            embedded.clone(),
+            model,
+            far,
+            name.clone(),
+            LoopSense::Oriented { sphere: None },
+        ))
+    };
     if let Some((centre, radius, axis, needed)) = turn {
-        match bubblemesh_analytic::Frame::new(centre, axis)
-            .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))
-        {
-            Ok(turned) => {
-                return face_from_loops_within(
-                    Arc::new(turned),
-                    planar,
-                    same_sense,
-                    loops,
-                    embedded,
-                    model,
-                    far,
-                    name,
-                    LoopSense::Oriented { sphere: None },
-                )
-            }
+        match read_turned(centre, radius, axis) {
+            Ok(face) => return face,
             Err(e) if needed => {
                 return Err(errs(format!(
                     "{OUTSIDE}: its sphere cannot be turned ({e})"
@@ -430,20 +434,8 @@ pub(crate) fn face_from_loops_within(
     // `clearer_axis`).
     if let (Some(_), Some(Some((centre, radius)))) = (open_end, oriented) {
         if let Some(axis) = clearer_axis(model, &loops, &base.singular_points(), centre, radius) {
-            if let Ok(turned) = bubblemesh_analytic::Frame::new(centre, axis)
-                .and_then(|f| bubblemesh_analytic::Sphere::with_frame(f, radius))
-            {
-                return face_from_loops_within(
-                    Arc::new(turned),
-                    planar,
-                    same_sense,
-                    loops,
-                    embedded,
-                    model,
-                    far,
-                    name,
-                    LoopSense::Oriented { sphere: None },
-                );
+            if let Ok(face) = read_turned(centre, radius, axis) {
+                return face;
             }
         }
     }
@@ -564,9 +556,10 @@ const POLE_CLEARANCE: f64 = 0.01;
 const POLE_NEAR: f64 = 0.25;
 
 /// For a sphere face (`centre`, `radius`) that runs to one of its `poles`
-/// and whose `loops` come within [`POLE_NEAR`] radii of them: the axis, out of a few hundred
-/// spread evenly over the sphere, whose two poles are farthest from every
-/// loop point, if that distance is at least twice the poles' now. A cap
+/// and whose `loops` come within [`POLE_NEAR`] radii of them: the axis,
+/// out of a few hundred spread evenly over the sphere, whose two poles are
+/// farthest from every loop point, if that distance is at least twice the
+/// poles' now. A cap
 /// near a loop is connected in its tangent plane with the loop's nodes
 /// around it; where the loop passes a fraction of the radius off the pole
 /// the fill does not close at any spacing (rp_6_033: a dimple of r 3.9

@@ -68,15 +68,12 @@ fn circumcentre_weights(a: &P3, b: &P3, c: &P3) -> Option<[f64; 3]> {
 pub(crate) type Reconnect<'f, 'a> =
     dyn FnMut(&mut System<'a, OnFace<'a>>) -> Result<Vec<[usize; 3]>, MeshError> + 'f;
 
-/// The smallest angle of `tris` (degrees) and their mean radius ratio.
-fn least_angle_and_mean(pos: &[P3], tris: &[[usize; 3]]) -> (f64, f64) {
-    let least = tris
-        .iter()
+/// The smallest angle of `tris` (degrees).
+fn least_angle(pos: &[P3], tris: &[[usize; 3]]) -> f64 {
+    tris.iter()
         .map(|t| crate::measure::triangle_min_angle(&pos[t[0]], &pos[t[1]], &pos[t[2]]))
         .fold(f64::INFINITY, f64::min)
-        .to_degrees();
-    let mean = crate::measure::mean_and_least_radius_ratio(pos, tris).0;
-    (least, mean)
+        .to_degrees()
 }
 
 /// Splits the skinny triangles of planar face `sys` (connected as `tris`)
@@ -89,10 +86,14 @@ pub(crate) fn split_skinny<'a>(
     reconnect: &mut Reconnect<'_, 'a>,
 ) -> Result<usize, MeshError> {
     let mut added = 0;
-    let first = least_angle_and_mean(&sys.pos, tris);
+    // most faces have no skinny triangle: their mean is not needed
+    let mut least = least_angle(&sys.pos, tris);
+    if least >= SKINNY_ANGLE {
+        return Ok(0);
+    }
+    let first_mean = crate::measure::mean_and_least_radius_ratio(&sys.pos, tris).0;
     for _ in 0..SKINNY_ROUNDS {
-        let before = least_angle_and_mean(&sys.pos, tris);
-        if before.0 >= SKINNY_ANGLE {
+        if least >= SKINNY_ANGLE {
             break;
         }
         let mut points: Vec<(P3, [f64; 2])> = Vec::new();
@@ -138,14 +139,17 @@ pub(crate) fn split_skinny<'a>(
         }
         let kept = match reconnect(sys) {
             Ok(new) => {
-                let after = least_angle_and_mean(&sys.pos, &new);
-                (after.0 > before.0 + ANGLE_GAIN && after.1 >= first.1 - MEAN_SLACK).then_some(new)
+                let after = least_angle(&sys.pos, &new);
+                let mean = crate::measure::mean_and_least_radius_ratio(&sys.pos, &new).0;
+                (after > least + ANGLE_GAIN && mean >= first_mean - MEAN_SLACK)
+                    .then_some((new, after))
             }
             Err(_) => None,
         };
         match kept {
-            Some(new) => {
+            Some((new, after)) => {
                 *tris = new;
+                least = after;
                 added += points.len();
             }
             None => {
