@@ -366,3 +366,25 @@ fn a_neck_between_two_holes_is_split_at_its_circumcentre() {
     let least = support::smallest_angle(&m);
     assert!(least > 25.5, "smallest angle {least}°");
 }
+
+/// A rib 1.01 thick on a cylinder (d = 3.95 at diag/20): four boundary
+/// nodes across it, two on each side, made a tetrahedron of 0.24° (Gmsh
+/// 4.15.2 HXT: 4.91°). Its Steiner points went in with the re-connection,
+/// whose boundary recovery removed them (every point of a wall that thin
+/// is inside its triangles' diametral spheres). Inserted in place
+/// (`core/src/volume/tet/insert.rs`), the point stays: 11.05°.
+#[test]
+fn a_sliver_across_a_thin_rib_gets_its_steiner_point_in_place() {
+    let d = 79.0847 / 20.0;
+    let m = mesh("rib_sliver.step", d, 3);
+    assert_closed_and_referenced(&m, "rib_sliver.step --dim 3");
+    let least = m
+        .tetrahedra
+        .iter()
+        .map(|t| {
+            let [a, b, c, e] = t.nodes.map(|n| m.nodes[n as usize].pos);
+            bubblemesh_core::measure::dihedral_extremes(&a, &b, &c, &e).0
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(least > 8.0, "smallest dihedral angle {least}°");
+}

@@ -448,6 +448,10 @@ pub struct VolumeReport {
     /// Steiner points added inside slivers that smoothing and flips could
     /// not remove.
     pub steiner: usize,
+    /// Steiner points inserted in place at the end for slivers among
+    /// fixed nodes ([`tet::insert`]), kept (0 when they did not raise the
+    /// worst tetrahedron).
+    pub steiner_in_place: usize,
     /// Pairs of boundary triangles turned to the Delaunay diagonal of
     /// their quadrilateral before the connection ([`recover`]).
     pub boundary_flips: usize,
@@ -876,6 +880,10 @@ fn attempt(
         if let Some(frac) = polish(lattice, &mut tm, &mut rep) {
             return Ok(Attempt::GiveUp(frac));
         }
+    }
+    if !job.opts.fast {
+        let inside = |p: &P3| sys.carrier.contains_point(p);
+        rep.steiner_in_place = steiner_in_place(&mut tm, inside);
     }
     rep.flat_quads = remove_flat_quads(job, boundary, &mut tm, mesh);
     refuse_flat(&tm, rep.steiner)?;
@@ -1424,6 +1432,79 @@ fn polish(lattice: Lattice, tm: &mut TetMesh, rep: &mut VolumeReport) -> Option<
     // on fixtures/step/loft.step: 4 tetrahedra of the BCC start stayed at
     // 0.51, dihedral angle 24.8°)
     (left > 0).then(|| left as f64 / tm.tets.len().max(1) as f64)
+}
+
+/// Tetrahedra among fixed nodes whose objective is below this get a
+/// Steiner point in [`steiner_in_place`].
+const IN_PLACE_Q: f64 = 0.15;
+
+/// How far [`steiner_in_place`] may lower the volume's mean radius ratio.
+const MEAN_SLACK: f64 = 0.001;
+
+/// Steiner points inserted in place ([`tet::insert`]) for the tetrahedra
+/// among fixed nodes still below [`TARGET_Q`], worst first, then the sliver
+/// pass around them; kept only where the worst tetrahedron's objective
+/// rises. Returns how many points were kept.
+///
+/// Each point is the first of centroid ± s·d·n (n the normal of the
+/// tetrahedron's mean plane, d the mean spacing of its corners, s = 0.29,
+/// 0.12, 0.05) that `inside` accepts and that goes in: the re-connected
+/// Steiner rounds of [`remove_slivers`] use 0.29·d, which a wall thinner
+/// than about 0.6·d does not hold, and there the boundary recovery would
+/// remove any point anyway (see [`tet::insert`]).
+fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
+    use tet::steiner::mean_plane_normal;
+    let qs = tm.objectives();
+    let worst = |qs: &[f64]| qs.iter().cloned().fold(f64::INFINITY, f64::min);
+    let worst_before = worst(&qs);
+    let mean = |tm: &TetMesh| {
+        tm.tets
+            .iter()
+            .map(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t))
+            .sum::<f64>()
+            / tm.tets.len().max(1) as f64
+    };
+    let mean_before = mean(tm);
+    let mut bad: Vec<usize> = (0..tm.tets.len())
+        .filter(|&i| qs[i] < IN_PLACE_Q && tm.tets[i].iter().all(|&k| !tm.movable[k as usize]))
+        .collect();
+    if bad.is_empty() {
+        return 0;
+    }
+    bad.sort_by(|&a, &b| qs[a].total_cmp(&qs[b]));
+    let before = tm.clone();
+    let mut ins = tet::insert::Inserter::new(tm);
+    let mut added = 0;
+    for &i in &bad {
+        let Some(t) = ins.live(i) else { continue };
+        let p = t.map(|k| ins.pos()[k as usize]);
+        let Some(n) = mean_plane_normal(&p) else {
+            continue;
+        };
+        let c = P3::from((p[0].coords + p[1].coords + p[2].coords + p[3].coords) / 4.0);
+        let dc = t.iter().map(|&k| before.d[k as usize]).sum::<f64>() / 4.0;
+        let candidates = [0.29, 0.12, 0.05]
+            .into_iter()
+            .flat_map(|s| [s, -s])
+            .map(|s| c + n * (s * dc));
+        for q in candidates {
+            if inside(&q) && ins.insert(i, q, dc).is_some() {
+                added += 1;
+                break;
+            }
+        }
+    }
+    ins.finish();
+    if added == 0 {
+        return 0;
+    }
+    tet::sliver::remove_slivers_near_bad(tm, &tet::sliver::SliverParams::default());
+    if worst(&tm.objectives()) > worst_before && mean(tm) >= mean_before - MEAN_SLACK {
+        added
+    } else {
+        *tm = before;
+        0
+    }
 }
 
 /// Never hand out a flat tetrahedron (a solver divides by its volume):

@@ -8,6 +8,7 @@
 //! the Delaunay kernel.
 
 pub(crate) mod flip;
+pub(crate) mod insert;
 pub(crate) mod mesh;
 pub(crate) mod odt;
 pub(crate) mod polish;

@@ -132,19 +132,11 @@ pub(crate) fn steiner_points(
         let p = t.map(|k| pos[k as usize]);
         let c = P3::from((p[0].coords + p[1].coords + p[2].coords + p[3].coords) / 4.0);
         let dc = t.iter().map(|&k| d[k as usize]).sum::<f64>() / 4.0;
-        // the normal of the mean plane: the largest cross product of two
-        // opposite edges (for a flat quadrilateral, its diagonals')
-        let n = [(0, 1, 2, 3), (0, 2, 1, 3), (0, 3, 1, 2)]
-            .iter()
-            .map(|&(a, b, e, f)| (p[b] - p[a]).cross(&(p[f] - p[e])))
-            .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))
-            .unwrap_or_else(V3::zeros);
-        let nn = n.norm();
-        if nn.is_nan() || nn <= 0.0 {
+        let Some(n) = mean_plane_normal(&p) else {
             continue;
-        }
+        };
         for s in [1.0, -1.0] {
-            let q = c + n * (s * 0.29 * dc / nn);
+            let q = c + n * (s * 0.29 * dc);
             if inside(&q) {
                 cand.push((q, dc));
             }
@@ -188,6 +180,18 @@ pub(crate) fn steiner_points(
         }
     }
     out
+}
+
+/// The unit normal of a tetrahedron's mean plane: along the largest cross
+/// product of two opposite edges (for a flat quadrilateral, its
+/// diagonals'); `None` when every pair is parallel.
+pub(crate) fn mean_plane_normal(p: &[P3; 4]) -> Option<V3> {
+    let n = [(0, 1, 2, 3), (0, 2, 1, 3), (0, 3, 1, 2)]
+        .iter()
+        .map(|&(a, b, e, f)| (p[b] - p[a]).cross(&(p[f] - p[e])))
+        .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))?;
+    let nn = n.norm();
+    (nn > 0.0 && nn.is_finite()).then(|| n / nn)
 }
 
 /// The nodes of `mesh` to re-connect after Steiner points: the first
