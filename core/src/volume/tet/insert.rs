@@ -250,27 +250,33 @@ mod tests {
     use super::*;
     use crate::volume::tet::mesh::testing::assert_positive;
 
-    /// A point inside a cube's tetrahedralization goes in: the mesh gets
-    /// one more node, stays positive, fills the same volume, and its
-    /// boundary faces are the cube's as before; a point outside does not.
-    #[test]
-    fn an_inserted_point_keeps_the_volume_and_its_boundary() {
+    /// The Delaunay tetrahedralization of a box `w` × `w` × `h` at the
+    /// origin, its eight corners fixed.
+    fn slab(w: f64, h: f64) -> TetMesh {
         let mut pos = Vec::new();
-        for z in [0.0, 1.0] {
-            for y in [0.0, 1.0] {
-                for x in [0.0, 1.0] {
+        for z in [0.0, h] {
+            for y in [0.0, w] {
+                for x in [0.0, w] {
                     pos.push(P3::new(x, y, z));
                 }
             }
         }
         let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
         let tets = bubblemesh_delaunay::tetrahedralize(&coords).unwrap().tets;
-        let mut mesh = TetMesh {
+        TetMesh {
             movable: vec![false; 8],
             d: vec![1.0; 8],
             pos,
             tets,
-        };
+        }
+    }
+
+    /// A point inside a cube's tetrahedralization goes in: the mesh gets
+    /// one more node, stays positive, fills the same volume, and its
+    /// boundary faces are the cube's as before; a point outside does not.
+    #[test]
+    fn an_inserted_point_keeps_the_volume_and_its_boundary() {
+        let mut mesh = slab(1.0, 1.0);
         let boundary = |m: &TetMesh| {
             let mut c: FxHashMap<[u32; 3], usize> = FxHashMap::default();
             for t in &m.tets {
@@ -321,22 +327,7 @@ mod tests {
     fn a_point_inside_a_boundary_faces_sphere_keeps_the_face() {
         // a flat slab 0.2 thick, 2 × 2: its top and bottom faces' spheres
         // hold every interior point near the middle
-        let mut pos = Vec::new();
-        for z in [0.0, 0.2] {
-            for y in [0.0, 2.0] {
-                for x in [0.0, 2.0] {
-                    pos.push(P3::new(x, y, z));
-                }
-            }
-        }
-        let coords: Vec<[f64; 3]> = pos.iter().map(|p| [p.x, p.y, p.z]).collect();
-        let tets = bubblemesh_delaunay::tetrahedralize(&coords).unwrap().tets;
-        let mut mesh = TetMesh {
-            movable: vec![false; 8],
-            d: vec![1.0; 8],
-            pos,
-            tets,
-        };
+        let mut mesh = slab(2.0, 0.2);
         let top: Vec<[u32; 3]> = mesh
             .tets
             .iter()

@@ -2,7 +2,7 @@
 //! one [`mesh::TetMesh`] and its own parameters: optimal-Delaunay
 //! smoothing ([`odt`]), sliver removal ([`sliver`]), flips ([`flip`]), the
 //! mean-quality polish ([`polish`]) and Steiner points for slivers no move
-//! can fix ([`steiner`]). What they share — the objective, the node →
+//! can fix ([`steiner`], or in place: [`insert`]). What they share — the objective, the node →
 //! tetrahedra table, a node's star — is in [`star`]; the element measures
 //! in [`crate::measure`]. Imports run one way: passes → star, measure →
 //! the Delaunay kernel.
