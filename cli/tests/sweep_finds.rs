@@ -388,3 +388,22 @@ fn a_sliver_across_a_thin_rib_gets_its_steiner_point_in_place() {
         .fold(f64::INFINITY, f64::min);
     assert!(least > 8.0, "smallest dihedral angle {least}°");
 }
+
+/// A box with a void, a rib 1.7 thick, a slot and a counterbored hole, at
+/// d = 5.078694 (diag/20 of a box a little larger than Gmsh's, whose
+/// d = 5.078347 meshed): refused as tetrahedra ("two boundary nodes
+/// coincide"). The boundary recovery's split of an edge put its node
+/// exactly on a node already there (the diagonals of a parallelogram share
+/// their midpoint). Such a split is not made now.
+#[test]
+fn a_boundary_split_onto_a_node_is_not_made() {
+    let m = mesh("split_on_a_node.step", 5.078694109316837, 3);
+    assert_closed_and_referenced(&m, "split_on_a_node.step --dim 3");
+    let mut at: HashMap<[u64; 3], usize> = HashMap::new();
+    for (i, n) in m.nodes.iter().enumerate() {
+        let key = [n.pos.x, n.pos.y, n.pos.z].map(f64::to_bits);
+        if let Some(j) = at.insert(key, i) {
+            panic!("nodes {j} and {i} coincide at {:?}", n.pos);
+        }
+    }
+}

@@ -10,6 +10,7 @@
 //! some triangle or lies outside the kept region; every constraint segment is
 //! an edge of the triangulation; triangles are counter-clockwise in (u,v).
 
+use crate::geom::P3;
 use std::collections::{HashMap, HashSet};
 
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -966,6 +967,44 @@ pub(crate) fn first_gap(tris: &[[usize; 3]], directed: &[[usize; 2]]) -> Option<
         .min()
 }
 
+/// The first pair of points of `pos` closer than `tol` (model units) of
+/// which at least one is at index `from` or later (the free bubbles of a
+/// face, after its `from` fixed nodes), in index order. Two such nodes of
+/// one face have distinct (u,v) (either side of a seam, or at a pole) and
+/// the same point on the surface: their triangles fold over each other,
+/// which a check of the connection's edges does not see.
+pub(crate) fn first_coincident(pos: &[P3], from: usize, tol: f64) -> Option<[usize; 2]> {
+    if !(tol > 0.0 && tol.is_finite()) {
+        return None;
+    }
+    // a hash grid of cell `tol`: a pair within it lies in adjacent cells
+    let cell = |p: &P3| [p.x, p.y, p.z].map(|c| (c / tol).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (i, p) in pos.iter().enumerate() {
+        grid.entry(cell(p)).or_default().push(i);
+    }
+    let mut found: Option<[usize; 2]> = None;
+    for (i, p) in pos.iter().enumerate().skip(from) {
+        let c = cell(p);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let Some(v) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                        continue;
+                    };
+                    for &j in v {
+                        if j != i && (pos[j] - p).norm() < tol {
+                            let pair = [i.min(j), i.max(j)];
+                            found = Some(found.map_or(pair, |f| f.min(pair)));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    found
+}
+
 /// Signed area of a triangle of `uv` (positive when counter-clockwise).
 #[cfg(test)]
 fn signed_area(uv: &[[f64; 2]], t: [usize; 3]) -> f64 {
@@ -976,6 +1015,33 @@ fn signed_area(uv: &[[f64; 2]], t: [usize; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two free nodes at one point (either side of a seam, or at a pole)
+    /// are found; a free node on a fixed one too; two fixed ones (a
+    /// degenerate edge's ends) are the edge meshes' business; points
+    /// farther apart than the tolerance are not a pair.
+    #[test]
+    fn coincident_nodes_of_a_face_are_found() {
+        let p = |x: f64, y: f64| P3::new(x, y, 1.0e3);
+        let pts = [
+            p(0.0, 0.0),
+            p(0.0, 0.0),
+            p(1.0, 0.0),
+            p(2.0, 0.5),
+            p(2.0, 0.5),
+        ];
+        assert_eq!(first_coincident(&pts, 2, 1e-9), Some([3, 4]));
+        assert_eq!(
+            first_coincident(&pts[..4], 2, 1e-9),
+            None,
+            "fixed pair only"
+        );
+        let on_fixed = [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 0.0)];
+        assert_eq!(first_coincident(&on_fixed, 2, 1e-9), Some([1, 2]));
+        let near = [p(0.0, 0.0), p(0.0, 1e-6)];
+        assert_eq!(first_coincident(&near, 0, 1e-9), None);
+        assert_eq!(first_coincident(&near, 0, 1e-5), Some([0, 1]));
+    }
 
     /// The wall of a hole far smaller than the spacing: two rings of five
     /// nodes 0.001 apart on a cylinder of radius 0.025, with a spacing

@@ -1351,6 +1351,13 @@ fn accepted(
         )));
     }
     let d_mean = sys.d.iter().sum::<f64>() / sys.d.len().max(1) as f64;
+    if let Some([i, _]) = connect::first_coincident(&sys.pos, sys.n_fixed, COINCIDENT * d_mean) {
+        let p = sys.pos[i];
+        return Err(connect::ConnectError::Coarse(format!(
+            "two of its nodes coincide at ({}, {}, {}): its triangles fold over each other",
+            p.x, p.y, p.z
+        )));
+    }
     let judged = face_area
         .get_or_init(|| sampled_area(&sys.carrier))
         .filter(|&a| a >= AREA_JUDGED * d_mean * d_mean);
@@ -1377,6 +1384,13 @@ fn accepted(
         ))),
     }
 }
+
+/// Two nodes of a curved face closer than this many spacings (their
+/// bubbles' mean) are one point ([`connect::first_coincident`]). Far
+/// below any distance the packing leaves between bubbles (a pin hole of
+/// radius d/250 and height d/8000, as_0086, has nodes d/8000 apart), far
+/// above rounding.
+const COINCIDENT: f64 = 1e-9;
 
 /// Faces smaller than this many squared spacings (their bubbles' mean)
 /// are not held to [`AREA_FLOOR`]: they have room for a handful of nodes

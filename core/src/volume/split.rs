@@ -95,6 +95,11 @@ pub(crate) fn split_to_delaunay(
     let budget = max_splits(idx.len());
     let min_len = MIN_EDGE * diagonal(mesh, &idx);
     let mut best = (usize::MAX, 0);
+    // the nodes' points, bit for bit: a split node on one of them (the
+    // two diagonals of a parallelogram share a midpoint) is not made, as
+    // two nodes at one point cannot be tetrahedralized
+    let bits = |p: &P3| [p.x, p.y, p.z].map(f64::to_bits);
+    let mut taken: HashSet<[u64; 3]> = mesh.nodes.iter().map(|n| bits(&n.pos)).collect();
     for round in 0..MAX_ROUNDS {
         let idx = triangles_of(mesh, &faces);
         let delaunay = bd.faces();
@@ -161,6 +166,9 @@ pub(crate) fn split_to_delaunay(
             let Some(node) = midpoint(model, mesh, a, b, line, users) else {
                 continue;
             };
+            if !taken.insert(bits(&node.pos)) {
+                continue;
+            }
             *per.entry(node.entity).or_default() += 1;
             touched.extend(users.iter().copied());
             split_edge(mesh, a, b, node, users, line);

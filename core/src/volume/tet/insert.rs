@@ -71,13 +71,9 @@ impl<'a> Inserter<'a> {
     }
 
     /// Tetrahedron `t`, if no insertion has removed it.
-    pub(crate) fn live(&self, t: usize) -> Option<[u32; 4]> {
+    #[cfg(test)]
+    fn live(&self, t: usize) -> Option<[u32; 4]> {
         (!self.dead[t]).then(|| self.mesh.tets[t])
-    }
-
-    /// The node positions.
-    pub(crate) fn pos(&self) -> &[P3] {
-        &self.mesh.pos
     }
 
     /// The tetrahedron across face `k` of tetrahedron `t`, if any.

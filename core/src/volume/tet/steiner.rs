@@ -132,11 +132,11 @@ pub(crate) fn steiner_points(
         let p = t.map(|k| pos[k as usize]);
         let c = P3::from((p[0].coords + p[1].coords + p[2].coords + p[3].coords) / 4.0);
         let dc = t.iter().map(|&k| d[k as usize]).sum::<f64>() / 4.0;
-        let Some(n) = mean_plane_normal(&p) else {
+        let Some((n, nn)) = mean_plane_normal(&p) else {
             continue;
         };
         for s in [1.0, -1.0] {
-            let q = c + n * (s * 0.29 * dc);
+            let q = c + n * (s * 0.29 * dc / nn);
             if inside(&q) {
                 cand.push((q, dc));
             }
@@ -182,16 +182,19 @@ pub(crate) fn steiner_points(
     out
 }
 
-/// The unit normal of a tetrahedron's mean plane: along the largest cross
-/// product of two opposite edges (for a flat quadrilateral, its
-/// diagonals'); `None` when every pair is parallel.
-pub(crate) fn mean_plane_normal(p: &[P3; 4]) -> Option<V3> {
+/// A normal of a tetrahedron's mean plane and its length: the largest
+/// cross product of two opposite edges (for a flat quadrilateral, its
+/// diagonals'); `None` when every pair is parallel. A point `t` off the
+/// plane is `c + n * (t / len)` (not normalised first: that rounds
+/// differently, and the Steiner points' places decide the meshes bit for
+/// bit).
+pub(crate) fn mean_plane_normal(p: &[P3; 4]) -> Option<(V3, f64)> {
     let n = [(0, 1, 2, 3), (0, 2, 1, 3), (0, 3, 1, 2)]
         .iter()
         .map(|&(a, b, e, f)| (p[b] - p[a]).cross(&(p[f] - p[e])))
         .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))?;
     let nn = n.norm();
-    (nn > 0.0 && nn.is_finite()).then(|| n / nn)
+    (!nn.is_nan() && nn > 0.0).then_some((n, nn))
 }
 
 /// The nodes of `mesh` to re-connect after Steiner points: the first
