@@ -449,8 +449,8 @@ pub struct VolumeReport {
     /// not remove.
     pub steiner: usize,
     /// Steiner points inserted in place at the end for slivers among
-    /// fixed nodes ([`tet::insert`]), kept (0 when they did not raise the
-    /// worst tetrahedron).
+    /// fixed nodes and kept ([`tet::insert`]; `steiner_in_place` says when
+    /// one is kept).
     pub steiner_in_place: usize,
     /// Pairs of boundary triangles turned to the Delaunay diagonal of
     /// their quadrilateral before the connection ([`recover`]).
@@ -1450,8 +1450,7 @@ const IN_PLACE_POINTS: usize = 8;
 /// around what is below the target; a point is kept where the worst
 /// objective rises, the smallest dihedral angle does not fall and the
 /// volume's mean radius ratio stays within [`MEAN_SLACK`] of what it was
-/// before the first. Returns how many points
-/// were kept.
+/// before the first. Returns how many points were kept.
 ///
 /// Each point is the first of centroid ± s·d·n (n the normal of the
 /// tetrahedron's mean plane, d the mean spacing of its corners, s = 0.29,
@@ -1466,13 +1465,7 @@ const IN_PLACE_POINTS: usize = 8;
 /// gain.
 fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
     use tet::steiner::mean_plane_normal;
-    let mean = |tm: &TetMesh| {
-        tm.tets
-            .iter()
-            .map(|t| crate::measure::tet_radius_ratio_of(&tm.pos, t))
-            .sum::<f64>()
-            / tm.tets.len().max(1) as f64
-    };
+    let mean = |tm: &TetMesh| tet::mesh::mean_radius_ratio(&tm.pos, &tm.tets);
     // flat tetrahedra are not counted: those on a boundary quadrilateral
     // are turned away after this pass ([`remove_flat_quads`]), any other
     // refuses the volume ([`refuse_flat`]) for a finer surface there

@@ -98,7 +98,7 @@ pub(crate) fn split_to_delaunay(
     // the nodes' points, bit for bit: a split node on one of them (the
     // two diagonals of a parallelogram share a midpoint) is not made, as
     // two nodes at one point cannot be tetrahedralized
-    let bits = |p: &P3| [p.x, p.y, p.z].map(f64::to_bits);
+    let bits = |p: &P3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits()); // −0 as +0
     let mut taken: HashSet<[u64; 3]> = mesh.nodes.iter().map(|n| bits(&n.pos)).collect();
     for round in 0..MAX_ROUNDS {
         let idx = triangles_of(mesh, &faces);

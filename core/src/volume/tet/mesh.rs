@@ -31,6 +31,15 @@ impl TetMesh {
     }
 }
 
+/// The mean [`radius ratio`](crate::measure::tet_radius_ratio_of) of
+/// tetrahedra `tets` (0 for none).
+pub(crate) fn mean_radius_ratio(pos: &[P3], tets: &[[u32; 4]]) -> f64 {
+    tets.iter()
+        .map(|t| crate::measure::tet_radius_ratio_of(pos, t))
+        .sum::<f64>()
+        / tets.len().max(1) as f64
+}
+
 /// Small real meshes and the checks the passes' tests share.
 #[cfg(test)]
 pub(crate) mod testing {
@@ -76,10 +85,7 @@ pub(crate) mod testing {
     }
 
     pub(crate) fn mean_q(pos: &[P3], tets: &[[u32; 4]]) -> f64 {
-        tets.iter()
-            .map(|t| crate::measure::tet_radius_ratio_of(pos, t))
-            .sum::<f64>()
-            / tets.len() as f64
+        super::mean_radius_ratio(pos, tets)
     }
 
     pub(crate) fn worst_objective(pos: &[P3], tets: &[[u32; 4]]) -> f64 {

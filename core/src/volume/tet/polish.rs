@@ -106,11 +106,7 @@ pub(crate) fn polish(mesh: &mut TetMesh, params: &PolishParams) -> PolishStats {
     };
     for _ in 0..params.flip_rounds {
         let (pos, tets) = (&mesh.pos, &mesh.tets);
-        let mu = tets
-            .iter()
-            .map(|t| tet_radius_ratio_of(pos, t))
-            .sum::<f64>()
-            / tets.len().max(1) as f64;
+        let mu = super::mesh::mean_radius_ratio(pos, tets);
         let flips = super::flip::raise_mean(mesh, mu, params.flip_below);
         stats.flips += flips;
         if flips == 0 {
