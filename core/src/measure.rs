@@ -24,6 +24,13 @@ use crate::mesh::{Element, Mesh};
 /// test there checks that it equals this one.
 pub const TET_FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
 
+/// A triangle's corners in ascending order: the key of a face whichever
+/// way round its tetrahedra or triangles name it.
+pub(crate) fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
+    t.sort_unstable();
+    t
+}
+
 /// Six times the signed volume of tetrahedron [a, b, c, d]:
 /// det(b−a, c−a, d−a), model units cubed; positive for a positive
 /// tetrahedron. Floating point: use an exact predicate where the sign

@@ -22,7 +22,7 @@
 //! (`orient3d` exact), the tetrahedra's boundary faces are exactly the
 //! boundary triangles, each used once.
 
-use crate::measure::{triangle_circumball as circumball, TET_FACES as FACE};
+use crate::measure::{sorted3, triangle_circumball as circumball, TET_FACES as FACE};
 use std::collections::{HashMap, HashSet};
 
 use crate::measure::c3;
@@ -48,11 +48,6 @@ pub struct VolumeConnection {
     pub tets: Vec<[u32; 4]>,
     /// Free points removed for boundary recovery.
     pub removed: usize,
-}
-
-fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
-    t.sort_unstable();
-    t
 }
 
 /// The boundary triangle (index into the boundary, looked up in `bset`)

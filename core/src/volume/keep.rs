@@ -42,7 +42,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use super::tet::mesh::TetMesh;
 use crate::geom::P3;
-use crate::measure::TET_FACES;
+use crate::measure::{sorted3, TET_FACES};
 use crate::remesh::state::bits;
 
 /// Rounds of handing kept tetrahedra to the cavity where an interface
@@ -78,11 +78,6 @@ fn positive(pos: &[P3], t: &[u32; 4]) -> bool {
 /// Whether the triangles `x` and `y` are the same oriented triangle.
 fn same_turn(x: [u32; 3], y: [u32; 3]) -> bool {
     x == y || x == [y[1], y[2], y[0]] || x == [y[2], y[0], y[1]]
-}
-
-fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
-    t.sort_unstable();
-    t
 }
 
 /// Face `k` of `t`, oriented outward.

@@ -1493,18 +1493,30 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
             })
             .fold(f64::INFINITY, f64::min)
     };
-    let mut floor = None;
+    // the worst tetrahedron can only be a candidate if some tetrahedron
+    // among fixed nodes is below IN_PLACE_Q: most volumes have none, and
+    // this look at those few saves the whole mesh's objectives
+    let locked = |t: &[u32; 4]| t.iter().all(|&k| !tm.movable[k as usize]);
+    if !tm
+        .tets
+        .iter()
+        .any(|t| locked(t) && !flat(tm, t) && tet::star::objective_of(&tm.pos, t) < IN_PLACE_Q)
+    {
+        return 0;
+    }
+    let floor = mean(tm) - MEAN_SLACK;
+    // the worst tetrahedron and the smallest angle of the mesh as it is
+    // (after a kept point, what was measured of it)
+    let (mut worst_now, mut angle) = (worst(tm), least_dihedral(tm));
     let mut kept = 0;
     while kept < IN_PLACE_POINTS {
-        let Some((q, i)) = worst(tm) else {
+        let Some((q, i)) = worst_now else {
             break;
         };
         let t = tm.tets[i];
         if q >= IN_PLACE_Q || t.iter().any(|&k| tm.movable[k as usize]) {
             break;
         }
-        let floor = *floor.get_or_insert_with(|| mean(tm) - MEAN_SLACK);
-        let angle = least_dihedral(tm);
         let p = t.map(|k| tm.pos[k as usize]);
         let Some((n, nn)) = mean_plane_normal(&p) else {
             break;
@@ -1523,9 +1535,12 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
             break;
         }
         tet::sliver::remove_slivers_near_bad(tm, &tet::sliver::SliverParams::default());
-        let after = worst(tm).map_or(f64::INFINITY, |w| w.0);
-        if after > q && mean(tm) >= floor && least_dihedral(tm) >= angle {
+        let worst_after = worst(tm);
+        let after = worst_after.map_or(f64::INFINITY, |w| w.0);
+        let angle_after = least_dihedral(tm);
+        if after > q && mean(tm) >= floor && angle_after >= angle {
             kept += 1;
+            (worst_now, angle) = (worst_after, angle_after);
         } else {
             *tm = before;
             break;

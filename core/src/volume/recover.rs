@@ -27,18 +27,13 @@
 //! boundary loop a→d→b→c is split along c–d).
 
 use crate::geom::P3;
-use crate::measure::TET_FACES;
+use crate::measure::{sorted3, TET_FACES};
 use crate::mesh::Mesh;
 use std::collections::{HashMap, HashSet};
 
 /// At most this many passes over the missing triangles (each pass turns
 /// every pair it can; a later pass sees pairs whose neighbour turned).
 const PASSES: usize = 8;
-
-pub(crate) fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
-    t.sort_unstable();
-    t
-}
 
 pub(crate) fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))

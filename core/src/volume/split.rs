@@ -28,10 +28,10 @@
 //! ([`crate::engine::refine`]), as before.
 
 use super::recover::{
-    by_edge, earlier_faces, key, mesh_lines, sorted3, triangles_of, BoundaryDelaunay, PassTurns,
-    Quad,
+    by_edge, earlier_faces, key, mesh_lines, triangles_of, BoundaryDelaunay, PassTurns, Quad,
 };
 use crate::geom::P3;
+use crate::measure::sorted3;
 use crate::mesh::{Element, Mesh, Node};
 use crate::model::{EntityRef, Model};
 use std::collections::{HashMap, HashSet};

@@ -19,7 +19,7 @@
 
 use super::mesh::TetMesh;
 use crate::geom::P3;
-use crate::measure::{c3, orient3d, tet_volume6, TET_FACES};
+use crate::measure::{c3, orient3d, sorted3, tet_volume6, TET_FACES};
 use rustc_hash::{FxHashMap, FxHashSet};
 
 /// A tetrahedral mesh with its face → tetrahedra table, for a series of
@@ -33,11 +33,6 @@ pub(crate) struct Inserter<'a> {
 }
 
 const NONE: u32 = u32::MAX;
-
-fn sorted(mut f: [u32; 3]) -> [u32; 3] {
-    f.sort_unstable();
-    f
-}
 
 /// Whether `p` lies strictly inside the circumsphere of the positive
 /// tetrahedron `t` (exact `insphere`; its sign flips with the orientation,
@@ -59,7 +54,7 @@ impl<'a> Inserter<'a> {
         let mut faces: FxHashMap<[u32; 3], [u32; 2]> = FxHashMap::default();
         for (i, t) in mesh.tets.iter().enumerate() {
             for f in TET_FACES {
-                let e = faces.entry(sorted(f.map(|k| t[k]))).or_insert([NONE; 2]);
+                let e = faces.entry(sorted3(f.map(|k| t[k]))).or_insert([NONE; 2]);
                 e[usize::from(e[0] != NONE)] = i as u32;
             }
         }
@@ -79,7 +74,7 @@ impl<'a> Inserter<'a> {
     /// The tetrahedron across face `k` of tetrahedron `t`, if any.
     fn across(&self, t: usize, k: usize) -> Option<usize> {
         let tet = &self.mesh.tets[t];
-        let f = sorted(TET_FACES[k].map(|i| tet[i]));
+        let f = sorted3(TET_FACES[k].map(|i| tet[i]));
         let [a, b] = self.faces[&f];
         let o = if a as usize == t { b } else { a };
         (o != NONE).then_some(o as usize)
@@ -198,7 +193,7 @@ impl<'a> Inserter<'a> {
             self.dead[t] = true;
             let tet = self.mesh.tets[t];
             for f in TET_FACES {
-                let key = sorted(f.map(|i| tet[i]));
+                let key = sorted3(f.map(|i| tet[i]));
                 let e = self
                     .faces
                     .get_mut(&key)
@@ -220,7 +215,7 @@ impl<'a> Inserter<'a> {
             for f in TET_FACES {
                 let e = self
                     .faces
-                    .entry(sorted(f.map(|k| t[k])))
+                    .entry(sorted3(f.map(|k| t[k])))
                     .or_insert([NONE; 2]);
                 e[usize::from(e[0] != NONE)] = i;
             }
@@ -277,7 +272,7 @@ mod tests {
             let mut c: FxHashMap<[u32; 3], usize> = FxHashMap::default();
             for t in &m.tets {
                 for f in TET_FACES {
-                    *c.entry(sorted(f.map(|k| t[k]))).or_default() += 1;
+                    *c.entry(sorted3(f.map(|k| t[k]))).or_default() += 1;
                 }
             }
             let mut b: Vec<[u32; 3]> = c.into_iter().filter(|e| e.1 == 1).map(|e| e.0).collect();
@@ -327,7 +322,7 @@ mod tests {
         let top: Vec<[u32; 3]> = mesh
             .tets
             .iter()
-            .flat_map(|t| TET_FACES.map(|f| sorted(f.map(|k| t[k]))))
+            .flat_map(|t| TET_FACES.map(|f| sorted3(f.map(|k| t[k]))))
             .filter(|f| f.iter().all(|&k| mesh.pos[k as usize].z == 0.2))
             .collect();
         assert_eq!(top.len(), 2);
@@ -339,7 +334,7 @@ mod tests {
             assert!(mesh
                 .tets
                 .iter()
-                .any(|t| TET_FACES.iter().any(|g| sorted(g.map(|k| t[k])) == *f)));
+                .any(|t| TET_FACES.iter().any(|g| sorted3(g.map(|k| t[k])) == *f)));
         }
     }
 }
