@@ -23,8 +23,8 @@
 //!    line of the layout and lattice rows can run along it;
 //! 3. cones are added greedily at the node of largest |h| among nodes more
 //!    than `cone_exclusion` spacings from every cone, with
-//!    κ = −sign(h)·π/3, until that |h| < `cone_tol` (one conjugate-gradient
-//!    solve per cone, warm-started);
+//!    κ = −sign(h)·π/3, until that |h| < `cone_tol` (L is factored once,
+//!    by sparse Cholesky, and solved once per cone);
 //! 4. the triangles are laid out in the plane breadth-first with the lengths
 //!    ℓ_ij·e^{(φ_i+φ_j)/2} (in units of the spacing); turning by ±60° around
 //!    a cone, which a hexagonal lattice does not see;
@@ -47,8 +47,9 @@
 //! no worse than the packed mesh's. Measured with `bench/run_2d.py`: case B
 //! 0.9852 / 0.900 → 0.9930 / 0.887 (mean / min radius ratio), case C
 //! 0.9823 / 0.818 → 0.9928 / 0.894, 100 % of edges in [1/√2, √2]; the
-//! flattening and second stage 2 cost about 1.5 s on each (the packing
-//! 0.7 s). Larger faces cost more: see [`LatticeParams::max_background_nodes`].
+//! flattening and second stage 2 cost about as much as the packing (case B,
+//! one thread: 0.40 of 0.62 s, the solves 0.04 s of it). Larger faces
+//! cost more: see [`LatticeParams::max_background_nodes`].
 //!
 //! Units: (u,v) of a planar face whose parametrization is an isometry, so a
 //! spacing is a (u,v) length. Invariants: the input triangles are
@@ -57,6 +58,11 @@
 
 use std::collections::{HashMap, VecDeque};
 
+use faer::col::ColRef;
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{SparseColMat, Triplet};
+use faer::Side;
 use nalgebra::Complex;
 
 type C64 = Complex<f64>;
@@ -88,12 +94,13 @@ pub struct LatticeParams {
     /// Seeds closer than this many spacings to a kept seed are dropped.
     pub seed_gap: f64,
     /// Background meshes larger than this are not flattened, and the face
-    /// keeps its packed mesh: with a Jacobi-preconditioned conjugate
-    /// gradient per cone the flattening grows like n^1.5 (case B at a
-    /// quarter of its spacing, 95k unknowns: 27 s of cone placement against
-    /// 10 s of stage 2; at half its spacing, 24k: 1.8 s against 2 s). A
-    /// better preconditioner (incomplete Cholesky, multigrid on the bubble
-    /// hierarchy) would lift this.
+    /// keeps its packed mesh. The bound is memory: the Cholesky factor of
+    /// L grows faster than the mesh (case B at a quarter of its spacing,
+    /// 99k unknowns: peak 189 MB against 109 MB without the lattice; at an
+    /// eighth, 400k unknowns: 788 MB against 70 MB, and the second stage 2
+    /// tripled the time). The solves themselves are no longer the cost
+    /// (at a quarter: the flattening and second stage 2 12.6 s against
+    /// 5.8 s of packing).
     pub max_background_nodes: usize,
 }
 
@@ -119,9 +126,6 @@ impl Default for LatticeParams {
 
 /// The lattice's settings.
 const PRM: LatticeParams = LatticeParams::DEFAULT;
-/// Relative residual of the solves while placing cones: h is only compared
-/// with `cone_tol` there (Newton then solves to 1e-8).
-const GREEDY_TOL: f64 = 1e-5;
 /// Newton steps on the curvature at most (it converges quadratically).
 const NEWTON_STEPS: usize = 8;
 /// Lattice points this far outside a laid-out triangle (in barycentric
@@ -172,12 +176,21 @@ pub fn lattice_seeds(bg: &Background<'_>, d: &mut dyn FnMut([f64; 2]) -> f64) ->
     let euclid = Metric::new(&mesh, &vec![0.0; n]);
     let mut first = first_order(&mut mesh, &euclid, &u, bg.holes.len())?;
     let (kappa, cones) = place_cones(&mesh, &mut first, &dn)?;
+    // the Euclidean factor is not needed again: freed before Newton's
+    let FirstOrder {
+        unk,
+        unk_nodes,
+        h,
+        laplacian,
+        ..
+    } = first;
+    drop(laplacian);
     let mut phi = u.clone();
-    for (m, &i) in first.unk_nodes.iter().enumerate() {
-        phi[i] += first.h[m];
+    for (m, &i) in unk_nodes.iter().enumerate() {
+        phi[i] += h[m];
     }
     // the cones found to first order, the metric is made flat exactly
-    if !newton(&mesh, &first.unk, &first.unk_nodes, &kappa, &mut phi) {
+    if !newton(&mesh, &unk, &unk_nodes, &kappa, &mut phi) {
         return None;
     }
     let f = lay_out(&mesh, bg, &u, &phi)?;
@@ -193,8 +206,8 @@ struct FirstOrder {
     /// Dirichlet).
     unk: Vec<usize>,
     unk_nodes: Vec<usize>,
-    rows: Rows,
-    diag: Vec<f64>,
+    /// The Euclidean L restricted to the unknowns, factored.
+    laplacian: Spd,
     /// −(L u)_U − K_E.
     rhs0: Vec<f64>,
     /// h at the unknowns; after [`place_cones`], with the cones.
@@ -231,7 +244,7 @@ fn first_order(
             return None; // no Dirichlet node: the scale would be free
         }
         // L restricted to the unknowns, and rhs0 = −(L u)_U − K_E
-        let (rows, diag) = euclid.reduced(&unk, &unk_nodes);
+        let laplacian = euclid.reduced(&unk, &unk_nodes, None)?;
         let rhs0: Vec<f64> = unk_nodes
             .iter()
             .map(|&i| {
@@ -240,15 +253,7 @@ fn first_order(
                 -lu - euclid.curvature[i]
             })
             .collect();
-        let mut h = vec![0.0; unk_nodes.len()];
-        if !(Spd {
-            rows: &rows,
-            diag: &diag,
-        })
-        .solve(&rhs0, &mut h, GREEDY_TOL)
-        {
-            return None;
-        }
+        let h = laplacian.solve(&rhs0)?;
         let mut worst = vec![0.0f64; nholes];
         for (m, &i) in unk_nodes.iter().enumerate() {
             if mesh.hole_of[i] != usize::MAX {
@@ -260,8 +265,7 @@ fn first_order(
             return Some(FirstOrder {
                 unk,
                 unk_nodes,
-                rows,
-                diag,
+                laplacian,
                 rhs0,
                 h,
             });
@@ -284,14 +288,12 @@ fn place_cones(
 ) -> Option<(Vec<f64>, (usize, usize))> {
     let FirstOrder {
         unk_nodes,
-        rows,
-        diag,
+        laplacian,
         rhs0,
         h,
         ..
     } = first;
     let nu = unk_nodes.len();
-    let sys = Spd { rows, diag };
     let mut kappa = vec![0.0; nu];
     let mut b = rhs0.clone();
     // cones go more than `cone_exclusion` spacings from every cone (a cone's
@@ -367,9 +369,7 @@ fn place_cones(
         for m in 0..nu {
             b[m] = rhs0[m] + kappa[m];
         }
-        if !sys.solve(&b, h, GREEDY_TOL) {
-            return None;
-        }
+        *h = laplacian.solve(&b)?;
     }
     Some((kappa, cones))
 }
@@ -698,102 +698,57 @@ impl Metric {
         }
     }
 
-    /// Rows (off-diagonals) and diagonal of L restricted to the unknowns.
-    fn reduced(&self, unk: &[usize], unk_nodes: &[usize]) -> (Rows, Vec<f64>) {
-        let mut rows = Rows {
-            start: Vec::with_capacity(unk_nodes.len() + 1),
-            col: Vec::new(),
-            val: Vec::new(),
-        };
-        rows.start.push(0);
-        for &i in unk_nodes {
+    /// L restricted to the unknowns, factored; `symbolic` is the
+    /// factorization's structure when an earlier matrix had the same
+    /// unknowns. `None` if L is not positive definite there.
+    fn reduced(
+        &self,
+        unk: &[usize],
+        unk_nodes: &[usize],
+        symbolic: Option<&SymbolicLlt<usize>>,
+    ) -> Option<Spd> {
+        let mut entries = Vec::with_capacity(unk_nodes.len() * 7);
+        for (r, &i) in unk_nodes.iter().enumerate() {
+            entries.push(Triplet::new(r, r, self.diag[i]));
             for &(j, w) in &self.off[i] {
                 if unk[j] != usize::MAX {
-                    rows.col.push(unk[j]);
-                    rows.val.push(-w);
+                    entries.push(Triplet::new(r, unk[j], -w));
                 }
             }
-            rows.start.push(rows.col.len());
         }
-        let diag = unk_nodes.iter().map(|&i| self.diag[i]).collect();
-        (rows, diag)
+        let n = unk_nodes.len();
+        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries).ok()?;
+        let symbolic = match symbolic {
+            Some(s) => s.clone(),
+            None => SymbolicLlt::try_new(a.symbolic(), Side::Lower).ok()?,
+        };
+        let llt = Llt::try_new_with_symbolic(symbolic.clone(), a.as_ref(), Side::Lower).ok()?;
+        Some(Spd { llt, symbolic })
     }
 }
 
-/// The off-diagonal entries of a sparse matrix, row by row (compressed
-/// rows: row `i` is `col[start[i]..start[i + 1]]`, `val` likewise).
-struct Rows {
-    start: Vec<usize>,
-    col: Vec<usize>,
-    val: Vec<f64>,
+/// A sparse symmetric positive definite matrix, factored once and solved
+/// for many right-hand sides (faer's sparse Cholesky with its fill-reducing
+/// ordering: on a background of 90,000 unknowns a factorization takes about
+/// 0.1 s and a solve 0.01 s, where a Jacobi-preconditioned conjugate
+/// gradient took seconds per solve and grew like n^1.5).
+struct Spd {
+    llt: Llt<usize, f64>,
+    /// The structure of `llt` (shared, not copied, by matrices with the
+    /// same unknowns).
+    symbolic: SymbolicLlt<usize>,
 }
 
-/// A sparse symmetric positive definite matrix by rows (off-diagonals) and
-/// its diagonal. Solved by conjugate gradients with a Jacobi preconditioner,
-/// written here because the workspace has no sparse solver and one small
-/// well-conditioned system per cone is all this needs.
-struct Spd<'a> {
-    rows: &'a Rows,
-    diag: &'a [f64],
-}
-
-impl Spd<'_> {
-    /// y = A x; returns Σ x·y (each sum runs over i in order, from −0 as
-    /// `Iterator::sum` does, so fusing it here changes no bit).
-    fn mul(&self, x: &[f64], y: &mut [f64]) -> f64 {
-        let Rows { start, col, val } = self.rows;
-        let mut dot = -0.0;
-        for i in 0..x.len() {
-            let mut s = self.diag[i] * x[i];
-            for k in start[i]..start[i + 1] {
-                s += val[k] * x[col[k]];
-            }
-            y[i] = s;
-            dot += x[i] * s;
-        }
-        dot
+impl Spd {
+    /// The solution x of A x = b; `None` if it is not finite.
+    fn solve(&self, b: &[f64]) -> Option<Vec<f64>> {
+        let x = self.llt.solve(ColRef::from_slice(b));
+        let x: Vec<f64> = x.iter().copied().collect();
+        x.iter().all(|v| v.is_finite()).then_some(x)
     }
 
-    /// Solves A x = b from the start `x` to a residual below `tol`·|b|;
-    /// false if it does not converge.
-    fn solve(&self, b: &[f64], x: &mut [f64], tol: f64) -> bool {
-        let n = b.len();
-        let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300);
-        let mut r = vec![0.0; n];
-        self.mul(x, &mut r);
-        for i in 0..n {
-            r[i] = b[i] - r[i];
-        }
-        let mut z: Vec<f64> = (0..n).map(|i| r[i] / self.diag[i]).collect();
-        let mut p = z.clone();
-        let mut rz: f64 = (0..n).map(|i| r[i] * z[i]).sum();
-        let mut rr: f64 = r.iter().map(|v| v * v).sum();
-        let mut ap = vec![0.0; n];
-        for _ in 0..(5000 + 20 * (n as f64).sqrt() as usize) {
-            if rr.sqrt() <= tol * bnorm {
-                return true;
-            }
-            let pap = self.mul(&p, &mut ap);
-            if !(pap > 0.0) {
-                return false;
-            }
-            let a = rz / pap;
-            let (mut rz2, mut rr2) = (-0.0, -0.0);
-            for i in 0..n {
-                x[i] += a * p[i];
-                r[i] -= a * ap[i];
-                z[i] = r[i] / self.diag[i];
-                rz2 += r[i] * z[i];
-                rr2 += r[i] * r[i];
-            }
-            let beta = rz2 / rz;
-            rz = rz2;
-            rr = rr2;
-            for i in 0..n {
-                p[i] = z[i] + beta * p[i];
-            }
-        }
-        false
+    fn symbolic(&self) -> &SymbolicLlt<usize> {
+        &self.symbolic
     }
 }
 
@@ -806,6 +761,8 @@ impl Spd<'_> {
 /// ring closes (case C: a lost node on the first ring; research:
 /// buildCones.py, mean 0.9909 → 0.9920). False if a solve fails.
 fn newton(m: &Refined, unk: &[usize], unk_nodes: &[usize], kappa: &[f64], phi: &mut [f64]) -> bool {
+    // every step's L has the same unknowns, so the same structure
+    let mut symbolic: Option<SymbolicLlt<usize>> = None;
     for _ in 0..NEWTON_STEPS {
         let g = Metric::new(m, phi);
         let res: Vec<f64> = unk_nodes
@@ -816,22 +773,19 @@ fn newton(m: &Refined, unk: &[usize], unk_nodes: &[usize], kappa: &[f64], phi: &
         if res.iter().all(|r| r.abs() < 1e-7) {
             return true;
         }
-        let (rows, diag) = g.reduced(unk, unk_nodes);
-        if diag.iter().any(|&x| !(x > 0.0)) {
+        if unk_nodes.iter().any(|&i| !(g.diag[i] > 0.0)) {
             return false;
         }
-        let mut delta = vec![0.0; res.len()];
-        if !(Spd {
-            rows: &rows,
-            diag: &diag,
-        })
-        .solve(&res, &mut delta, 1e-8)
-        {
+        let Some(l) = g.reduced(unk, unk_nodes, symbolic.as_ref()) else {
             return false;
-        }
+        };
+        let Some(delta) = l.solve(&res) else {
+            return false;
+        };
         for (&i, dl) in unk_nodes.iter().zip(&delta) {
             phi[i] += dl;
         }
+        symbolic = Some(l.symbolic().clone());
     }
     true
 }
@@ -1205,6 +1159,67 @@ mod tests {
         let lat = seeds_for(|p| 0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2)));
         let (pos, neg) = lat.cones;
         assert!(pos >= neg + 5 && pos + neg <= 20, "cones {:?}", lat.cones);
+    }
+
+    /// The factored Laplacian solves L x = b to round-off: the residual,
+    /// computed from the metric's own weights, is below 1e-10 of |b| on a
+    /// background of 40,000 unknowns (a conjugate gradient stopped at 1e-5
+    /// there), and one structure serves a second matrix with the same
+    /// unknowns (Newton's steps).
+    #[test]
+    fn the_factored_laplacian_solves_to_round_off() {
+        let m = with_square(100, refine);
+        let n = m.uv.len();
+        let mut unk = vec![usize::MAX; n];
+        let mut unk_nodes = Vec::new();
+        for (i, x) in unk.iter_mut().enumerate() {
+            if !m.boundary[i] {
+                *x = unk_nodes.len();
+                unk_nodes.push(i);
+            }
+        }
+        assert!(unk_nodes.len() > 39_000, "{} unknowns", unk_nodes.len());
+        let residual = |g: &Metric, x: &[f64], b: &[f64]| -> f64 {
+            let mut worst = 0.0f64;
+            for (r, &i) in unk_nodes.iter().enumerate() {
+                let mut lx = g.diag[i] * x[r];
+                for &(j, w) in &g.off[i] {
+                    if unk[j] != usize::MAX {
+                        lx -= w * x[unk[j]];
+                    }
+                }
+                worst = worst.max((lx - b[r]).abs());
+            }
+            worst / b.iter().map(|v| v * v).sum::<f64>().sqrt()
+        };
+        let b: Vec<f64> = (0..unk_nodes.len())
+            .map(|k| ((k * 7919) % 13) as f64 - 6.0)
+            .collect();
+        let flat = Metric::new(&m, &vec![0.0; n]);
+        let l = flat
+            .reduced(&unk, &unk_nodes, None)
+            .expect("positive definite");
+        let x = l.solve(&b).expect("finite");
+        assert!(
+            residual(&flat, &x, &b) < 1e-10,
+            "{}",
+            residual(&flat, &x, &b)
+        );
+        // another metric (d graded as case B), the same structure
+        let phi: Vec<f64> =
+            m.uv.iter()
+                .map(|p| -(0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2))).ln())
+                .collect();
+        let graded = Metric::new(&m, &phi);
+        let l2 = graded
+            .reduced(&unk, &unk_nodes, Some(l.symbolic()))
+            .expect("positive definite");
+        let x2 = l2.solve(&b).expect("finite");
+        assert!(
+            residual(&graded, &x2, &b) < 1e-10,
+            "{}",
+            residual(&graded, &x2, &b)
+        );
     }
 
     /// Newton makes the metric flat to the tolerance: the angle sums of the
