@@ -31,6 +31,13 @@ pub(crate) fn sorted3(mut t: [u32; 3]) -> [u32; 3] {
     t
 }
 
+/// The four corners of a tetrahedron in increasing order (a key that
+/// does not depend on their order in the element).
+pub(crate) fn sorted4(mut t: [u32; 4]) -> [u32; 4] {
+    t.sort_unstable();
+    t
+}
+
 /// Six times the signed volume of tetrahedron [a, b, c, d]:
 /// det(b−a, c−a, d−a), model units cubed; positive for a positive
 /// tetrahedron. Floating point: use an exact predicate where the sign
