@@ -1161,6 +1161,27 @@ mod tests {
         assert!(pos >= neg + 5 && pos + neg <= 20, "cones {:?}", lat.cones);
     }
 
+    /// The interior nodes as the unknowns (the boundary Dirichlet): each
+    /// node's index among them (`usize::MAX`: Dirichlet), and the nodes.
+    fn interior_unknowns(m: &Refined) -> (Vec<usize>, Vec<usize>) {
+        let mut unk = vec![usize::MAX; m.uv.len()];
+        let mut unk_nodes = Vec::new();
+        for (i, x) in unk.iter_mut().enumerate() {
+            if !m.boundary[i] {
+                *x = unk_nodes.len();
+                unk_nodes.push(i);
+            }
+        }
+        (unk, unk_nodes)
+    }
+
+    /// u = −log d at the nodes, d = 0.01 + 0.2 r² (case B).
+    fn case_b_u(m: &Refined) -> Vec<f64> {
+        m.uv.iter()
+            .map(|p| -(0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2))).ln())
+            .collect()
+    }
+
     /// The factored Laplacian solves L x = b to round-off: the residual,
     /// computed from the metric's own weights, is below 1e-10 of |b| on a
     /// background of 40,000 unknowns (a conjugate gradient stopped at 1e-5
@@ -1170,14 +1191,7 @@ mod tests {
     fn the_factored_laplacian_solves_to_round_off() {
         let m = with_square(100, refine);
         let n = m.uv.len();
-        let mut unk = vec![usize::MAX; n];
-        let mut unk_nodes = Vec::new();
-        for (i, x) in unk.iter_mut().enumerate() {
-            if !m.boundary[i] {
-                *x = unk_nodes.len();
-                unk_nodes.push(i);
-            }
-        }
+        let (unk, unk_nodes) = interior_unknowns(&m);
         assert!(unk_nodes.len() > 39_000, "{} unknowns", unk_nodes.len());
         let residual = |g: &Metric, x: &[f64], b: &[f64]| -> f64 {
             let mut worst = 0.0f64;
@@ -1195,31 +1209,19 @@ mod tests {
         let b: Vec<f64> = (0..unk_nodes.len())
             .map(|k| ((k * 7919) % 13) as f64 - 6.0)
             .collect();
-        let flat = Metric::new(&m, &vec![0.0; n]);
-        let l = flat
-            .reduced(&unk, &unk_nodes, None)
-            .expect("positive definite");
-        let x = l.solve(&b).expect("finite");
-        assert!(
-            residual(&flat, &x, &b) < 1e-10,
-            "{}",
-            residual(&flat, &x, &b)
-        );
-        // another metric (d graded as case B), the same structure
-        let phi: Vec<f64> =
-            m.uv.iter()
-                .map(|p| -(0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2))).ln())
-                .collect();
-        let graded = Metric::new(&m, &phi);
-        let l2 = graded
-            .reduced(&unk, &unk_nodes, Some(l.symbolic()))
-            .expect("positive definite");
-        let x2 = l2.solve(&b).expect("finite");
-        assert!(
-            residual(&graded, &x2, &b) < 1e-10,
-            "{}",
-            residual(&graded, &x2, &b)
-        );
+        // the Euclidean metric, then another (d graded as case B) with the
+        // first one's structure
+        let mut symbolic = None;
+        for phi in [vec![0.0; n], case_b_u(&m)] {
+            let g = Metric::new(&m, &phi);
+            let l = g
+                .reduced(&unk, &unk_nodes, symbolic.as_ref())
+                .expect("positive definite");
+            let x = l.solve(&b).expect("finite");
+            let r = residual(&g, &x, &b);
+            assert!(r < 1e-10, "relative residual {r}");
+            symbolic = Some(l.symbolic().clone());
+        }
     }
 
     /// Newton makes the metric flat to the tolerance: the angle sums of the
@@ -1227,20 +1229,9 @@ mod tests {
     #[test]
     fn newton_closes_the_angle_sums() {
         let m = with_square(16, refine);
-        let n = m.uv.len();
-        let mut unk = vec![usize::MAX; n];
-        let mut unk_nodes = Vec::new();
-        for (i, x) in unk.iter_mut().enumerate() {
-            if !m.boundary[i] {
-                *x = unk_nodes.len();
-                unk_nodes.push(i);
-            }
-        }
+        let (unk, unk_nodes) = interior_unknowns(&m);
         // u = −log d with d = 0.01 + 0.2 r², and one positive cone in the middle
-        let mut phi: Vec<f64> =
-            m.uv.iter()
-                .map(|p| -(0.01 + 0.2 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2))).ln())
-                .collect();
+        let mut phi = case_b_u(&m);
         let mut kappa = vec![0.0; unk_nodes.len()];
         let mid = (0..unk_nodes.len())
             .min_by(|&a, &b| {

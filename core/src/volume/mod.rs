@@ -1506,8 +1506,7 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
             })
             .fold(f64::INFINITY, f64::min)
     };
-    // the worst tetrahedron can only be a candidate if some tetrahedron
-    // among fixed nodes is below IN_PLACE_Q: most volumes have none, and
+    // most volumes have no tetrahedron among fixed nodes below IN_PLACE_Q:
     // this look at those few saves the whole mesh's objectives
     let locked = |t: &[u32; 4]| t.iter().all(|&k| !tm.movable[k as usize]);
     if !tm
@@ -1558,8 +1557,6 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
             continue;
         }
         tet::sliver::remove_slivers_near_bad(tm, &tet::sliver::SliverParams::default());
-        // kept where the tetrahedra among fixed nodes got better (the
-        // point's tetrahedra have a free corner) and the mesh got no worse
         // the tetrahedra the point and the sliver pass made
         let old: std::collections::HashSet<[u32; 4]> = before
             .tets
