@@ -397,8 +397,8 @@ fn smallest_dihedral(m: &Mesh) -> f64 {
 /// (d = 2.177 at diag/20): a tetrahedron of four boundary nodes across the
 /// rib, 1.04° (Gmsh 4.15.2 HXT: 4.55°), was never given its point in place,
 /// as the mesh's worst tetrahedron (by objective) was another one, with a
-/// twin of the same objective. Now each tetrahedron among fixed nodes below
-/// the threshold is tried, worst first: 2.11°.
+/// twin of the same objective. Now the tetrahedron with the mesh's
+/// smallest dihedral angle is tried too: 2.11°.
 #[test]
 fn a_sliver_among_fixed_nodes_that_is_not_the_worst_gets_its_point() {
     let m = mesh("locked_sliver_not_worst.step", 2.177486093690958, 3);
