@@ -1296,7 +1296,6 @@ fn remove_slivers(
     // nodes: flips remove most, but which ones they leave depends on the
     // order they meet them, so every one gets its Steiner points now
     // (see steiner::steiner_points)
-    let locked = |t: &[u32; 4], movable: &[bool]| t.iter().all(|&k| !movable[k as usize]);
     if release {
         // the old mesh had its kept bubbles where they are for its own
         // connectivity, which the new Delaunay one need not be: where that
@@ -1447,6 +1446,12 @@ const MEAN_SLACK: f64 = 0.001;
 /// At most this many points of [`steiner_in_place`].
 const IN_PLACE_POINTS: usize = 8;
 
+/// Whether tetrahedron `t` has all four corners fixed (`movable` false):
+/// no pass that moves nodes can change it.
+fn locked(t: &[u32; 4], movable: &[bool]) -> bool {
+    t.iter().all(|&k| !movable[k as usize])
+}
+
 /// Steiner points inserted in place ([`tet::insert`]), one at a time, each
 /// for the mesh's worst tetrahedron by objective or the one with its
 /// smallest dihedral angle, where its corners are all fixed nodes (no
@@ -1486,40 +1491,38 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
     let flat = |tm: &TetMesh, t: &[u32; 4]| {
         crate::measure::tet_radius_ratio_of(&tm.pos, t) < tet::steiner::FLAT_Q
     };
-    let worst = |tm: &TetMesh| {
-        (0..tm.tets.len())
-            .map(|i| (tet::star::objective_of(&tm.pos, &tm.tets[i]), i))
-            .filter(|&(_, i)| !flat(tm, &tm.tets[i]))
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-    };
-    // the objective's worst can rise while another tetrahedron's angle
-    // falls (rp_1_002: 5.48° → 2.75° where a radius ratio was the worst)
-    let least_dihedral = |tm: &TetMesh| {
-        (0..tm.tets.len())
-            .filter(|&i| !flat(tm, &tm.tets[i]))
-            .map(|i| {
-                let p = tm.tets[i].map(|k| tm.pos[k as usize]);
-                (
-                    crate::measure::dihedral_extremes(&p[0], &p[1], &p[2], &p[3]).0,
-                    i,
-                )
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
+    // the mesh's worst tetrahedron by objective and the one with its
+    // smallest dihedral angle (the first of equals), in one pass: the
+    // objective's worst can rise while another tetrahedron's angle falls
+    // (rp_1_002: 5.48° → 2.75° where a radius ratio was the worst)
+    type Extreme = Option<(f64, usize)>;
+    let extremes = |tm: &TetMesh| -> (Extreme, Extreme) {
+        let lower = |m: Extreme, v: f64, i: usize| match m {
+            Some((w, _)) if v.total_cmp(&w) != std::cmp::Ordering::Less => m,
+            _ => Some((v, i)),
+        };
+        let (mut worst, mut least) = (None, None);
+        for (i, t) in tm.tets.iter().enumerate() {
+            if flat(tm, t) {
+                continue;
+            }
+            let p = t.map(|k| tm.pos[k as usize]);
+            worst = lower(worst, tet::star::objective(&p[0], &p[1], &p[2], &p[3]), i);
+            let angle = crate::measure::dihedral_extremes(&p[0], &p[1], &p[2], &p[3]).0;
+            least = lower(least, angle, i);
+        }
+        (worst, least)
     };
     // most volumes have no tetrahedron among fixed nodes below IN_PLACE_Q:
     // this look at those few saves the whole mesh's objectives
-    let locked = |t: &[u32; 4]| t.iter().all(|&k| !tm.movable[k as usize]);
-    if !tm
-        .tets
-        .iter()
-        .any(|t| locked(t) && !flat(tm, t) && tet::star::objective_of(&tm.pos, t) < IN_PLACE_Q)
-    {
+    if !tm.tets.iter().any(|t| {
+        locked(t, &tm.movable) && !flat(tm, t) && tet::star::objective_of(&tm.pos, t) < IN_PLACE_Q
+    }) {
         return 0;
     }
     let floor = mean(tm) - MEAN_SLACK;
-    // the mesh's worst tetrahedron by objective and the one with its
-    // smallest dihedral angle (after a kept point, what was measured)
-    let (mut worst_now, mut least_now) = (worst(tm), least_dihedral(tm));
+    // (after a kept point, what was measured of it)
+    let (mut worst_now, mut least_now) = extremes(tm);
     let value = |w: Option<(f64, usize)>| w.map_or(f64::INFINITY, |w| w.0);
     let mut tried = std::collections::HashSet::new();
     let mut kept = 0;
@@ -1532,7 +1535,7 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
             .find_map(|(_, i)| {
                 let t = tm.tets[i];
                 let q = tet::star::objective_of(&tm.pos, &t);
-                (t.iter().all(|&k| !tm.movable[k as usize])
+                (locked(&t, &tm.movable)
                     && q < IN_PLACE_Q
                     && !tried.contains(&crate::measure::sorted4(t)))
                 .then_some((q, i))
@@ -1572,7 +1575,7 @@ fn steiner_in_place(tm: &mut TetMesh, inside: impl Fn(&P3) -> bool) -> usize {
             .filter(|&&t| !old.contains(&crate::measure::sorted4(t)) && !flat(tm, &t))
             .map(|t| tet::star::objective_of(&tm.pos, t))
             .fold(f64::INFINITY, f64::min);
-        let (worst_after, least_after) = (worst(tm), least_dihedral(tm));
+        let (worst_after, least_after) = extremes(tm);
         let (w0, w1) = (value(worst_now), value(worst_after));
         let (a0, a1) = (value(least_now), value(least_after));
         // kept where the point's tetrahedra are better than the one it
