@@ -425,3 +425,93 @@ fn a_boundary_split_onto_a_node_is_not_made() {
         }
     }
 }
+
+/// The nodes of `m` on the plane z = `z` (within 1e-9), by the bits of
+/// their x and y.
+fn nodes_at_height(m: &Mesh, z: f64) -> std::collections::HashSet<[u64; 2]> {
+    m.nodes
+        .iter()
+        .filter(|n| (n.pos.z - z).abs() < 1e-9)
+        .map(|n| [n.pos.x.to_bits(), n.pos.y.to_bits()])
+        .collect()
+}
+
+/// A plate 1 thick (100 × 80, z from 2 to 3, a hole of radius 15), its
+/// underside cut by a box turned 30° about z, so that its two sides'
+/// planes are parametrized apart (made with Gmsh's OpenCascade kernel:
+/// `addBox(0,0,0,100,80,3)` less `addCylinder(40,40,-1,0,0,5,15)` and
+/// `addBox(-100,-100,-5,300,300,7)` turned 30° about (50,40)). At d = 8
+/// the two sides' own meshes left their nodes about half a spacing apart,
+/// and the tetrahedra across the plate were slivers: mean radius ratio
+/// 0.2795. Now the second side takes the first side's mesh carried across
+/// (`core/src/face/twin.rs`): every node has its partner straight across,
+/// the plate is a layer of prisms, 0.3099.
+#[test]
+fn the_two_sides_of_a_plate_thinner_than_the_spacing_are_one_mesh_carried_across() {
+    let m = mesh("thin_plate.step", 8.0, 3);
+    assert_closed_and_referenced(&m, "thin_plate.step --dim 3");
+    let (top, bottom) = (nodes_at_height(&m, 3.0), nodes_at_height(&m, 2.0));
+    assert!(top.len() > 100, "{} nodes on the top side", top.len());
+    let alone = top.difference(&bottom).count() + bottom.difference(&top).count();
+    assert_eq!(alone, 0, "nodes without a partner across the plate");
+    let mean = m
+        .tetrahedra
+        .iter()
+        .map(|t| {
+            let [a, b, c, e] = t.nodes.map(|n| m.nodes[n as usize].pos);
+            bubblemesh_core::measure::tet_radius_ratio(&a, &b, &c, &e)
+        })
+        .sum::<f64>()
+        / m.tetrahedra.len() as f64;
+    assert!(mean > 0.30, "mean radius ratio {mean}");
+}
+
+/// The same plate with a spacing of 8 everywhere but on its top side near
+/// (75, 40), where it falls to 3 (a bump of radius 10 that no edge
+/// reaches): the two sides' boundaries still match node for node, but the
+/// underside must not take the top's finer mesh. Each keeps its own
+/// (`twin::SPACING_TOLERANCE`).
+#[test]
+fn a_spacing_that_differs_across_a_thin_plate_keeps_each_side_its_own_mesh() {
+    // max(0, u) written as (u + |u|)/2
+    let clamp = "(1 + (z-2+abs(z-2))/2 - abs(1 - (z-2+abs(z-2))/2))/2";
+    let bump = "(1 - ((x-75)^2+(y-40)^2)/100 + abs(1 - ((x-75)^2+(y-40)^2)/100))/2";
+    let size = format!("8 - 5*{clamp}*{bump}");
+    let dir = tempfile::tempdir().unwrap();
+    let o = support::mesh_in(
+        dir.path(),
+        &part("thin_plate.step"),
+        &size,
+        &["--dim", "3", "--unit", "mm"],
+    );
+    assert!(o.status.success(), "{}", support::stderr(&o));
+    let m = bubblemesh_io::read(&dir.path().join("m.msh")).unwrap();
+    assert_closed_and_referenced(&m, "thin_plate.step with a bump");
+    // the least distance between the side's nodes within 8 of the bump's
+    // centre
+    let least = |z: f64| {
+        let near: Vec<_> = m
+            .nodes
+            .iter()
+            .filter(|n| (n.pos.z - z).abs() < 1e-9)
+            .map(|n| n.pos)
+            .filter(|p| ((p.x - 75.0).powi(2) + (p.y - 40.0).powi(2)).sqrt() < 8.0)
+            .collect();
+        let mut least = f64::INFINITY;
+        for (i, p) in near.iter().enumerate() {
+            for q in &near[i + 1..] {
+                least = least.min((p - q).norm());
+            }
+        }
+        least
+    };
+    let (top, bottom) = (least(3.0), least(2.0));
+    assert!(
+        top < 4.5,
+        "the top side's nodes near the bump are {top} apart"
+    );
+    assert!(
+        bottom > 5.0,
+        "the underside's nodes near the bump are {bottom} apart"
+    );
+}

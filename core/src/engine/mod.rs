@@ -807,6 +807,9 @@ impl Attempt<'_> {
         // asked from rayon's threads; the same mesh either way, since each
         // face's outcome is appended in face order below
         let n = model.faces.len();
+        // the planar faces' boundaries, for the two sides of thin walls
+        let outlines = crate::face::twin::outlines(model, &self.mesh, edge_nodes, node_d);
+        let mut meshed = vec![false; n];
         let mut ready: Vec<Option<FaceWork>> = if opts.relax.parallel && n > 1 {
             use rayon::prelude::*;
             let (mesh, memos) = (&self.mesh, &*memory.memos);
@@ -835,6 +838,7 @@ impl Attempt<'_> {
                         Some(fr) => {
                             self.report.faces.push(fr);
                             self.report.faces_replayed += 1;
+                            meshed[fi] = true;
                             opts.tell(&Event::Done {
                                 entity: e,
                                 mesh: &self.mesh,
@@ -850,7 +854,20 @@ impl Attempt<'_> {
             };
             self.report.timings.add(&timings);
             match *result {
-                Ok((fr, out)) => {
+                Ok((mut fr, mut out)) => {
+                    // the second side of a wall thinner than the spacing
+                    // takes the first side's mesh (see face::twin)
+                    crate::face::twin::take(
+                        model,
+                        spacing,
+                        &mut self.mesh,
+                        &outlines,
+                        &meshed,
+                        fi,
+                        &mut fr,
+                        &mut out,
+                    );
+                    meshed[fi] = true;
                     let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
                     out.append_to(&mut self.mesh, e);
                     memo::record(

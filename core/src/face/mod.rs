@@ -19,7 +19,10 @@
 //!   the spacing ([`conformal`]), kept when it is better;
 //! - the new nodes and triangles into the mesh.
 //!
-//! [`orient`] turns the faces of a closed shell outward afterwards.
+//! [`orient`] turns the faces of a closed shell outward afterwards. Where
+//! a planar face is the second side of a wall thinner than the spacing,
+//! it takes the first side's mesh carried across instead ([`twin`]: the
+//! volume between them is then a layer of prisms, not of slivers).
 
 pub(crate) mod carrier;
 pub(crate) mod conformal;
@@ -30,6 +33,7 @@ pub(crate) mod orient;
 pub(crate) mod placement;
 pub(crate) mod region;
 pub(crate) mod skinny;
+pub(crate) mod twin;
 pub(crate) mod warm;
 
 use std::collections::HashMap;
@@ -166,6 +170,11 @@ pub struct FaceReport {
     /// (u,v) connection at this spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub flat_uv_filled: Option<String>,
+    /// The face whose mesh this one took, carried across a wall thinner
+    /// than the spacing ([`twin`]); `bubbles` and `triangles` are then the
+    /// carried ones.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub twin_of: Option<u32>,
 }
 
 /// How a curved face was connected where its (u,v) connection with caps of
