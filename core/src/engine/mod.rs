@@ -489,6 +489,7 @@ fn mesh_once(
             integrator: (!opts.fast).then_some(opts.relax.integrator),
             ..Default::default()
         },
+        walls: Vec::new(),
     };
     a.mesh.set_entities_from(model);
 
@@ -579,6 +580,9 @@ struct Attempt<'a> {
     /// dimension.
     node_d: Vec<f64>,
     report: Report,
+    /// The slabs between twin faces (see [`crate::face::twin`]): no
+    /// volume bubble stays in one.
+    walls: Vec<crate::face::twin::Wall>,
 }
 
 impl Attempt<'_> {
@@ -857,7 +861,7 @@ impl Attempt<'_> {
                 Ok((mut fr, mut out)) => {
                     // the second side of a wall thinner than the spacing
                     // takes the first side's mesh (see face::twin)
-                    crate::face::twin::take(
+                    self.walls.extend(crate::face::twin::take(
                         model,
                         spacing,
                         &mut self.mesh,
@@ -866,7 +870,7 @@ impl Attempt<'_> {
                         fi,
                         &mut fr,
                         &mut out,
-                    );
+                    ));
                     meshed[fi] = true;
                     let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
                     out.append_to(&mut self.mesh, e);
@@ -933,6 +937,7 @@ impl Attempt<'_> {
                 opts,
                 &mut self.mesh,
                 &self.node_d,
+                &self.walls,
                 &mut self.report.timings,
             )
             .map_err(|x| x.within(model.describe(e)))?;

@@ -122,9 +122,41 @@ pub(crate) fn outlines(
         .collect()
 }
 
+/// The slab between two twin faces, as the volume stage asks of it.
+#[derive(Clone, Debug)]
+pub(crate) struct Wall {
+    /// The earlier face's triangles.
+    triangles: Vec<[P3; 3]>,
+    /// The unit normal of the two planes.
+    normal: V3,
+    /// Where the earlier face's plane is along `normal` (p·normal).
+    from: f64,
+    /// How far the later face's plane is from it along `normal` (signed).
+    across: f64,
+}
+
+impl Wall {
+    /// Whether `p` lies between the two faces: strictly between their
+    /// planes (by more than 1e-9 of the thickness) and, seen along the
+    /// normal, inside the face.
+    pub(crate) fn holds(&self, p: &P3) -> bool {
+        let s = (p.coords.dot(&self.normal) - self.from) / self.across;
+        if !(s > 1e-9 && s < 1.0 - 1e-9) {
+            return false;
+        }
+        // p's shadow on the earlier face's plane, in one of its triangles
+        let q = p - self.normal * (s * self.across);
+        self.triangles.iter().any(|[a, b, c]| {
+            let n = (b - a).cross(&(c - a));
+            let side = |u: &P3, v: &P3| (v - u).cross(&(q - u)).dot(&n) >= 0.0;
+            side(a, b) && side(b, c) && side(c, a)
+        })
+    }
+}
+
 /// Face `b`'s mesh `out` (and its report) replaced by its twin's carried
 /// across the wall, where an earlier face in `mesh` is its twin (see the
-/// module docs). Returns whether it was.
+/// module docs). Returns the wall between them where it was.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn take(
     model: &Model,
@@ -135,10 +167,8 @@ pub(crate) fn take(
     b: usize,
     report: &mut FaceReport,
     out: &mut FaceOut,
-) -> bool {
-    let Some((a, t, map)) = find(outlines, meshed, mesh, b) else {
-        return false;
-    };
+) -> Option<Wall> {
+    let (a, t, map) = find(outlines, meshed, mesh, b)?;
     // b's boundary nodes put exactly where a's are carried (module docs;
     // on as_0086 they were 1e-14 apart, and 24 flat tetrahedra sent the
     // volume to a refinement round)
@@ -146,9 +176,7 @@ pub(crate) fn take(
         .iter()
         .map(|(&ka, &kb)| (kb, mesh.nodes[ka as usize].pos + t))
         .collect();
-    let Some(carried) = carry(model, spacing, mesh, (a, t, map), b) else {
-        return false;
-    };
+    let carried = carry(model, spacing, mesh, (a, t, map), b)?;
     for (kb, p) in snapped {
         mesh.nodes[kb as usize].pos = p;
     }
@@ -156,7 +184,20 @@ pub(crate) fn take(
     report.bubbles = carried.1.nodes.len();
     report.triangles = carried.1.triangles.len();
     *out = carried.1;
-    true
+    let ea = EntityRef::new(2, a as u32);
+    let triangles: Vec<[P3; 3]> = mesh
+        .triangles
+        .iter()
+        .filter(|e| e.entity == ea)
+        .map(|e| e.nodes.map(|k| mesh.nodes[k as usize].pos))
+        .collect();
+    let normal = t.try_normalize(0.0)?;
+    Some(Wall {
+        from: triangles.first()?[0].coords.dot(&normal),
+        triangles,
+        normal,
+        across: t.norm(),
+    })
 }
 
 /// The earlier face whose mesh face `b` takes, carried by a translation
