@@ -930,17 +930,10 @@ impl Attempt<'_> {
                 });
                 self.node_d.push(check_spacing(d, n.pos, n.entity)?);
             }
-            let mut vr = volume::mesh_volume(
-                model,
-                vi,
-                volume_spacing,
-                opts,
-                &mut self.mesh,
-                &self.node_d,
-                &self.walls,
-                &mut self.report.timings,
-            )
-            .map_err(|x| x.within(model.describe(e)))?;
+            let job =
+                volume::VolumeJob::new(model, vi, volume_spacing, opts, &self.node_d, &self.walls);
+            let mut vr = volume::mesh_volume(&job, &mut self.mesh, &mut self.report.timings)
+                .map_err(|x| x.within(model.describe(e)))?;
             vr.boundary_flips = flips;
             vr.boundary_splits = splits;
             tell_passes(opts, e, &vr);

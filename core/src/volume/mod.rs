@@ -547,7 +547,7 @@ fn connect_error(
 
 /// What meshing one volume reads: the model, the volume, the requested
 /// spacing, the options and the spacing at every node already meshed.
-struct VolumeJob<'a> {
+pub(super) struct VolumeJob<'a> {
     model: &'a crate::model::Model,
     vi: usize,
     entity: EntityRef,
@@ -558,6 +558,30 @@ struct VolumeJob<'a> {
     node_d: &'a [f64],
     /// The slabs between twin faces: free bubbles there are dropped.
     walls: &'a [crate::face::twin::Wall],
+}
+
+impl<'a> VolumeJob<'a> {
+    /// Volume `vi` of `model`, packed with `spacing`; `node_d` the spacing
+    /// at each node of the mesh so far, `walls` the slabs between twin
+    /// faces.
+    pub(super) fn new(
+        model: &'a crate::model::Model,
+        vi: usize,
+        spacing: &'a dyn Spacing,
+        opts: &'a crate::options::Options,
+        node_d: &'a [f64],
+        walls: &'a [crate::face::twin::Wall],
+    ) -> Self {
+        VolumeJob {
+            model,
+            vi,
+            entity: EntityRef::new(3, vi as u32),
+            spacing,
+            opts,
+            node_d,
+            walls,
+        }
+    }
 }
 
 /// The volume's boundary in the volume's own numbering: node `k` below
@@ -693,15 +717,11 @@ pub(super) fn recover_boundary(
 /// the spacing is uniform (see the module docs), and the thesis's FCC
 /// start when there is none or the BCC one is given up.
 pub(super) fn mesh_volume(
-    model: &crate::model::Model,
-    vi: usize,
-    spacing: &dyn Spacing,
-    opts: &crate::options::Options,
+    job: &VolumeJob<'_>,
     mesh: &mut crate::mesh::Mesh,
-    node_d: &[f64],
-    walls: &[crate::face::twin::Wall],
     timings: &mut crate::options::Timings,
 ) -> Result<VolumeReport, MeshError> {
+    let (vi, spacing, opts) = (job.vi, job.spacing, job.opts);
     // a warm start (§4.8) replaces stage 1 by the old bubbles, which came
     // from the FCC path (relaxed, ODT-smoothed): it takes that path
     let warm = (!opts.fast)
@@ -720,20 +740,11 @@ pub(super) fn mesh_volume(
         _ => Lattice::Fcc,
     };
     let mut rejected = None;
-    let job = VolumeJob {
-        model,
-        vi,
-        entity: EntityRef::new(3, vi as u32),
-        spacing,
-        opts,
-        node_d,
-        walls,
-    };
     loop {
-        let boundary = Boundary::of(&job, mesh)?;
+        let boundary = Boundary::of(job, mesh)?;
         let t_try = std::time::Instant::now();
         let staged = timings.stage1_s + timings.stage2_s;
-        match attempt(&job, &boundary, lattice, warm, mesh, timings)? {
+        match attempt(job, &boundary, lattice, warm, mesh, timings)? {
             Attempt::Done(mut rep) => {
                 if rejected.is_some() {
                     rep.bcc_rejected = rejected;
