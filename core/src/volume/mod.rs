@@ -546,7 +546,8 @@ fn connect_error(
 }
 
 /// What meshing one volume reads: the model, the volume, the requested
-/// spacing, the options and the spacing at every node already meshed.
+/// spacing, the options, the spacing at every node already meshed and the
+/// slabs between twin faces.
 pub(super) struct VolumeJob<'a> {
     model: &'a crate::model::Model,
     vi: usize,
