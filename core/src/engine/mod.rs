@@ -811,9 +811,8 @@ impl Attempt<'_> {
         // asked from rayon's threads; the same mesh either way, since each
         // face's outcome is appended in face order below
         let n = model.faces.len();
-        // the planar faces' boundaries, for the two sides of thin walls
-        let outlines = crate::face::twin::outlines(model, &self.mesh, edge_nodes, node_d);
-        let mut meshed = vec![false; n];
+        // the two sides of thin walls (see face::twin)
+        let mut twins = crate::face::twin::Twins::new(model, &self.mesh, edge_nodes, node_d);
         let mut ready: Vec<Option<FaceWork>> = if opts.relax.parallel && n > 1 {
             use rayon::prelude::*;
             let (mesh, memos) = (&self.mesh, &*memory.memos);
@@ -842,7 +841,7 @@ impl Attempt<'_> {
                         Some(fr) => {
                             self.report.faces.push(fr);
                             self.report.faces_replayed += 1;
-                            meshed[fi] = true;
+                            twins.meshed(fi);
                             opts.tell(&Event::Done {
                                 entity: e,
                                 mesh: &self.mesh,
@@ -861,17 +860,8 @@ impl Attempt<'_> {
                 Ok((mut fr, mut out)) => {
                     // the second side of a wall thinner than the spacing
                     // takes the first side's mesh (see face::twin)
-                    self.walls.extend(crate::face::twin::take(
-                        model,
-                        spacing,
-                        &mut self.mesh,
-                        &outlines,
-                        &meshed,
-                        fi,
-                        &mut fr,
-                        &mut out,
-                    ));
-                    meshed[fi] = true;
+                    twins.take(model, spacing, &mut self.mesh, fi, &mut fr, &mut out);
+                    twins.meshed(fi);
                     let before = (self.mesh.nodes.len(), self.mesh.triangles.len());
                     out.append_to(&mut self.mesh, e);
                     memo::record(
@@ -897,6 +887,7 @@ impl Attempt<'_> {
                 Err(err) => failed.push((fi as u32, err.within(model.describe(e)))),
             }
         }
+        self.walls = twins.walls;
         if !failed.is_empty() {
             let faces = failed.iter().map(|f| f.0).collect();
             let reasons = failed.iter().map(|f| f.1.to_string()).collect();

@@ -48,7 +48,7 @@ const MATCH: f64 = 1e-6;
 
 /// A planar face's boundary as twinning compares it.
 #[derive(Clone, Debug)]
-pub(crate) struct Outline {
+struct Outline {
     /// The unit normal of the plane (the sign is the parametrization's).
     normal: V3,
     /// The boundary nodes, each once, ascending.
@@ -57,6 +57,9 @@ pub(crate) struct Outline {
     segments: Vec<[u32; 2]>,
     /// The mean of the boundary nodes' positions.
     centroid: P3,
+    /// A point of the plane from the surface alone (its parametric
+    /// centre), not from the mesh.
+    origin: P3,
     /// The least spacing at the boundary nodes.
     d: f64,
 }
@@ -64,7 +67,7 @@ pub(crate) struct Outline {
 /// The outline of every face that may have a twin: planar, with no
 /// embedded edge or vertex, its boundary meshed (`edge_nodes`, the nodes
 /// of each edge in order, their spacing in `node_d`).
-pub(crate) fn outlines(
+fn outlines(
     model: &Model,
     mesh: &Mesh,
     edge_nodes: &[Vec<u32>],
@@ -81,11 +84,11 @@ pub(crate) fn outlines(
             {
                 return None;
             }
-            let (u, v) = {
-                let (du, dv) = f.surface.domain();
-                (0.5 * (du[0] + du[1]), 0.5 * (dv[0] + dv[1]))
-            };
-            let (_, su, sv) = f.surface.tangents(u, v);
+            let [u, v] = inside_domain(f.surface.as_ref());
+            let (origin, su, sv) = f.surface.tangents(u, v);
+            if ![origin.x, origin.y, origin.z].iter().all(|c| c.is_finite()) {
+                return None;
+            }
             let normal = su.cross(&sv).try_normalize(0.0)?;
             let mut segments = Vec::new();
             for use_ in f.loops.iter().flat_map(|l| l.edges.iter()) {
@@ -116,6 +119,7 @@ pub(crate) fn outlines(
                 nodes,
                 segments,
                 centroid,
+                origin,
                 d,
             })
         })
@@ -154,50 +158,92 @@ impl Wall {
     }
 }
 
-/// Face `b`'s mesh `out` (and its report) replaced by its twin's carried
-/// across the wall, where an earlier face in `mesh` is its twin (see the
-/// module docs). Returns the wall between them where it was.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn take(
-    model: &Model,
-    spacing: &dyn Spacing,
-    mesh: &mut Mesh,
-    outlines: &[Option<Outline>],
-    meshed: &[bool],
-    b: usize,
-    report: &mut FaceReport,
-    out: &mut FaceOut,
-) -> Option<Wall> {
-    let (a, t, map) = find(outlines, meshed, mesh, b)?;
-    // b's boundary nodes put exactly where a's are carried (module docs;
-    // on as_0086 they were 1e-14 apart, and 24 flat tetrahedra sent the
-    // volume to a refinement round)
-    let snapped: Vec<(u32, P3)> = map
-        .iter()
-        .map(|(&ka, &kb)| (kb, mesh.nodes[ka as usize].pos + t))
-        .collect();
-    let carried = carry(model, spacing, mesh, (a, t, map), b)?;
-    for (kb, p) in snapped {
-        mesh.nodes[kb as usize].pos = p;
+/// What twinning keeps over one face stage: the faces' outlines, which
+/// faces are in the mesh, the nodes a twin has moved or read, and the
+/// walls found.
+pub(crate) struct Twins {
+    outlines: Vec<Option<Outline>>,
+    meshed: Vec<bool>,
+    /// Boundary nodes a twin has snapped or carried from: none is moved
+    /// again, so that snapping is the same whatever the nodes' positions
+    /// were before (a re-meshing starts from the snapped ones; a node at
+    /// two twins' corner, as where two ribs cross, would otherwise follow
+    /// the order of the snaps).
+    pinned: std::collections::HashSet<u32>,
+    /// The slabs between the twins found.
+    pub(crate) walls: Vec<Wall>,
+}
+
+impl Twins {
+    /// Before the faces of `model` are meshed: their outlines (see
+    /// [`outlines`]).
+    pub(crate) fn new(model: &Model, mesh: &Mesh, edge_nodes: &[Vec<u32>], node_d: &[f64]) -> Self {
+        Twins {
+            outlines: outlines(model, mesh, edge_nodes, node_d),
+            meshed: vec![false; model.faces.len()],
+            pinned: Default::default(),
+            walls: Vec::new(),
+        }
     }
-    report.twin_of = Some(carried.0 as u32);
-    report.bubbles = carried.1.nodes.len();
-    report.triangles = carried.1.triangles.len();
-    *out = carried.1;
-    let ea = EntityRef::new(2, a as u32);
-    let triangles: Vec<[P3; 3]> = mesh
-        .triangles
-        .iter()
-        .filter(|e| e.entity == ea)
-        .map(|e| e.nodes.map(|k| mesh.nodes[k as usize].pos))
-        .collect();
-    let normal = t.try_normalize(0.0)?;
-    Some(Wall {
-        from: triangles.first()?[0].coords.dot(&normal),
-        triangles,
-        normal,
-        across: t.norm(),
-    })
+
+    /// Face `f`'s mesh is in the mesh now.
+    pub(crate) fn meshed(&mut self, f: usize) {
+        self.meshed[f] = true;
+    }
+
+    /// Face `b`'s mesh `out` (and its report) replaced by its twin's
+    /// carried across the wall, where an earlier face in `mesh` is its
+    /// twin (see the module docs); the wall between them kept.
+    pub(crate) fn take(
+        &mut self,
+        model: &Model,
+        spacing: &dyn Spacing,
+        mesh: &mut Mesh,
+        b: usize,
+        report: &mut FaceReport,
+        out: &mut FaceOut,
+    ) {
+        let Some((a, t, map)) = find(&self.outlines, &self.meshed, mesh, b) else {
+            return;
+        };
+        // b's boundary nodes put exactly where a's are carried (module
+        // docs; on as_0086 they were 1e-14 apart, and 24 flat tetrahedra
+        // sent the volume to a refinement round), those a twin has not
+        // pinned already
+        let snapped: Vec<(u32, P3)> = map
+            .iter()
+            .filter(|(_, kb)| !self.pinned.contains(kb))
+            .map(|(&ka, &kb)| (kb, mesh.nodes[ka as usize].pos + t))
+            .collect();
+        let pinned: Vec<u32> = map.iter().flat_map(|(&ka, &kb)| [ka, kb]).collect();
+        let Some((_, carried)) = carry(model, spacing, mesh, (a, t, map), b) else {
+            return;
+        };
+        for (kb, p) in snapped {
+            mesh.nodes[kb as usize].pos = p;
+        }
+        self.pinned.extend(pinned);
+        report.twin_of = Some(a as u32);
+        report.bubbles = carried.nodes.len();
+        report.triangles = carried.triangles.len();
+        *out = carried;
+        let ea = EntityRef::new(2, a as u32);
+        let triangles: Vec<[P3; 3]> = mesh
+            .triangles
+            .iter()
+            .filter(|e| e.entity == ea)
+            .map(|e| e.nodes.map(|k| mesh.nodes[k as usize].pos))
+            .collect();
+        let (Some(normal), Some(first)) = (t.try_normalize(0.0), triangles.first()) else {
+            return;
+        };
+        self.walls.push(Wall {
+            from: first[0].coords.dot(&normal),
+            triangles,
+            normal,
+            across: t.norm(),
+        });
+    }
 }
 
 /// The earlier face whose mesh face `b` takes, carried by a translation
@@ -239,15 +285,13 @@ fn find(
         if carried != ob.segments {
             return None;
         }
-        // the translation along the normal, from one pair of nodes: where
-        // the plane is normal to an axis, the carried nodes then differ from
-        // theirs in that coordinate alone, and four nodes of two segments
-        // across the wall are exactly coplanar (the Delaunay
-        // tetrahedralization's perturbation then splits their rectangle
-        // consistently; a rounding off the plane made flat tetrahedra there)
-        let (&pa, &pb) = map.iter().min_by_key(|(&k, _)| k)?;
-        let step = mesh.nodes[pb as usize].pos - mesh.nodes[pa as usize].pos;
-        Some((a, ob.normal * step.dot(&ob.normal), map))
+        // the translation along the normal, from the two planes alone:
+        // where the plane is normal to an axis, the carried nodes then
+        // differ from theirs in that coordinate alone; and it does not
+        // depend on where b's nodes are, so that snapping them twice (a
+        // re-meshing of a twinned mesh) puts them where it put them once
+        let across = (ob.origin - oa.origin).dot(&ob.normal);
+        across.is_finite().then(|| (a, ob.normal * across, map))
     })
 }
 
@@ -363,8 +407,8 @@ fn carry(
         return None;
     }
     // counter-clockwise in b's (u,v): the sign of its normal su × sv
-    let (du, dv) = surface.domain();
-    let (_, su, sv) = surface.tangents(0.5 * (du[0] + du[1]), 0.5 * (dv[0] + dv[1]));
+    let [u, v] = inside_domain(surface);
+    let (_, su, sv) = surface.tangents(u, v);
     let n = su.cross(&sv);
     let pos = |c: u32| {
         if c >= FaceOut::OWN {
@@ -387,4 +431,17 @@ fn carry(
             triangles,
         },
     ))
+}
+
+/// A parameter pair in the surface's domain: its centre, or a finite end
+/// of an unbounded direction, or 0 (a STEP plane's domain is the whole
+/// plane, whose centre is not a number).
+fn inside_domain(surface: &dyn crate::geom::Surface) -> [f64; 2] {
+    let (du, dv) = surface.domain();
+    [du, dv].map(|[lo, hi]| match (lo.is_finite(), hi.is_finite()) {
+        (true, true) => 0.5 * (lo + hi),
+        (true, false) => lo,
+        (false, true) => hi,
+        (false, false) => 0.0,
+    })
 }
