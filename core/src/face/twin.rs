@@ -57,8 +57,8 @@ struct Outline {
     segments: Vec<[u32; 2]>,
     /// The mean of the boundary nodes' positions.
     centroid: P3,
-    /// A point of the plane from the surface alone (its parametric
-    /// centre), not from the mesh.
+    /// A point of the plane from the surface alone (at
+    /// [`inside_domain`]), not from the mesh.
     origin: P3,
     /// The least spacing at the boundary nodes.
     d: f64,
