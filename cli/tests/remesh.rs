@@ -565,14 +565,16 @@ fn a_local_remesh_of_a_solid_with_steiner_points_keeps_far_nodes_and_tetrahedra(
         &dir.path().join("local.json"),
     );
     let d = 1.2;
-    let far = |c: &[u64; 3]| {
+    // whether a node is more than `spacings` spacings from the region
+    let beyond = |c: &[u64; 3], spacings: f64| {
         let x = bubblemesh_core::geom::P3::new(
             f64::from_bits(c[0]),
             f64::from_bits(c[1]),
             f64::from_bits(c[2]),
         );
-        (x - lo).norm() - r > 2.0 * d
+        (x - lo).norm() - r > spacings * d
     };
+    let far = |c: &[u64; 3]| beyond(c, 2.0);
     let now: std::collections::HashSet<_> =
         msh_nodes(Path::new(&p("local.msh"))).into_iter().collect();
     let far_nodes: Vec<_> = msh_nodes(Path::new(&p("old.msh")))
@@ -588,14 +590,7 @@ fn a_local_remesh_of_a_solid_with_steiner_points_keeps_far_nodes_and_tetrahedra(
     // take one more layer where the old mesh is a thin wall's slivers (one
     // tetrahedron of the outer wall, 1 thick, its corners 2.13 to 2.62
     // spacings from the region, since the ribs' sides are twins)
-    let far_for_tets = |c: &[u64; 3]| {
-        let x = bubblemesh_core::geom::P3::new(
-            f64::from_bits(c[0]),
-            f64::from_bits(c[1]),
-            f64::from_bits(c[2]),
-        );
-        (x - lo).norm() - r > 2.5 * d
-    };
+    let far_for_tets = |c: &[u64; 3]| beyond(c, 2.5);
     let far_tets: Vec<_> = msh_tets(Path::new(&p("old.msh")))
         .into_iter()
         .filter(|t| t.iter().all(&far_for_tets))
