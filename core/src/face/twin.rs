@@ -216,7 +216,7 @@ impl Twins {
             .map(|(&ka, &kb)| (kb, mesh.nodes[ka as usize].pos + t))
             .collect();
         let pinned: Vec<u32> = map.iter().flat_map(|(&ka, &kb)| [ka, kb]).collect();
-        let Some((_, carried)) = carry(model, spacing, mesh, (a, t, map), b) else {
+        let Some((carried, triangles)) = carry(model, spacing, mesh, (a, t, map), b) else {
             return;
         };
         for (kb, p) in snapped {
@@ -227,13 +227,6 @@ impl Twins {
         report.bubbles = carried.nodes.len();
         report.triangles = carried.triangles.len();
         *out = carried;
-        let ea = EntityRef::new(2, a as u32);
-        let triangles: Vec<[P3; 3]> = mesh
-            .triangles
-            .iter()
-            .filter(|e| e.entity == ea)
-            .map(|e| e.nodes.map(|k| mesh.nodes[k as usize].pos))
-            .collect();
         let (Some(normal), Some(first)) = (t.try_normalize(0.0), triangles.first()) else {
             return;
         };
@@ -345,7 +338,8 @@ fn match_nodes(
 
 /// Face `a`'s mesh (its triangles and own nodes in `mesh`) carried by `t`
 /// onto face `b`, boundary nodes through `map`; triangles counter-clockwise
-/// in `b`'s (u,v) as the face pipeline gives them. `None` where a carried
+/// in `b`'s (u,v) as the face pipeline gives them; with `a`'s triangles
+/// as they are (the wall's, [`Wall`]). `None` where a carried
 /// node cannot be put on `b`'s surface, or the spacing there is not within
 /// [`SPACING_TOLERANCE`] of its origin's.
 fn carry(
@@ -354,14 +348,16 @@ fn carry(
     mesh: &Mesh,
     (a, t, map): (usize, V3, HashMap<u32, u32>),
     b: usize,
-) -> Option<(usize, FaceOut)> {
+) -> Option<(FaceOut, Vec<[P3; 3]>)> {
     let (ea, eb) = (EntityRef::new(2, a as u32), EntityRef::new(2, b as u32));
     let surface = model.faces[b].surface.as_ref();
     let uniform = spacing.constant().is_some();
     let mut own: HashMap<u32, u32> = HashMap::new();
     let mut nodes = Vec::new();
     let mut triangles = Vec::new();
+    let mut source = Vec::new();
     for tri in mesh.triangles.iter().filter(|e| e.entity == ea) {
+        source.push(tri.nodes.map(|k| mesh.nodes[k as usize].pos));
         let mut corners = [0u32; 3];
         for (c, &k) in corners.iter_mut().zip(&tri.nodes) {
             *c = if let Some(&j) = map.get(&k) {
@@ -424,12 +420,12 @@ fn carry(
         }
     }
     Some((
-        a,
         FaceOut {
             nodes,
             kept: 0,
             triangles,
         },
+        source,
     ))
 }
 
