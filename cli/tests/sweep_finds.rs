@@ -519,3 +519,55 @@ fn a_spacing_that_differs_across_a_thin_plate_keeps_each_side_its_own_mesh() {
         "the underside's nodes near the bump are {bottom} apart"
     );
 }
+
+/// A sheet 1 thick bent by 90° (made with Gmsh's OpenCascade kernel, 40
+/// long along x: a floor `addBox(0,-30,-1,40,30,1)`, a wall
+/// `addBox(0,10,10,40,1,30)` and the bend between them, `addCylinder` of
+/// radius 11 less radius 10 about the axis through (0,0,10) along x, cut
+/// to the quadrant y ≥ 0, z ≤ 10). The bend's two sides are coaxial
+/// cylinders 1 apart; at d = 4 each was packed on its own and the
+/// tetrahedra across were slivers (radius ratio 0.13, smallest dihedral
+/// angle 9.4°). Now the outer side takes the inner side's mesh carried
+/// out along the normal (`core/src/face/twin.rs`): every outer node lies
+/// straight out from an inner one. Those carried quadrilaterals are
+/// twisted, and the Delaunay tetrahedralization left a sliver between the
+/// two splits of each (2.73°); the bend's tetrahedra are now its prisms'
+/// (`core/src/volume/wall.rs`): 10.29°.
+#[test]
+fn the_two_sides_of_a_bend_thinner_than_the_spacing_are_one_mesh_carried_across() {
+    let m = mesh("bent_sheet.step", 4.0, 3);
+    assert_closed_and_referenced(&m, "bent_sheet.step --dim 3");
+    // distance from the bend's axis (x, 0, 10), for the nodes of its
+    // quadrant
+    let radius = |p: &bubblemesh_core::geom::P3| {
+        (p.y >= -1e-9 && p.z <= 10.0 + 1e-9).then(|| (p.y.powi(2) + (p.z - 10.0).powi(2)).sqrt())
+    };
+    let inner: Vec<_> = m
+        .nodes
+        .iter()
+        .map(|n| n.pos)
+        .filter(|p| radius(p).is_some_and(|r| (r - 10.0).abs() < 1e-9))
+        .collect();
+    let outer: Vec<_> = m
+        .nodes
+        .iter()
+        .map(|n| n.pos)
+        .filter(|p| radius(p).is_some_and(|r| (r - 11.0).abs() < 1e-9))
+        .collect();
+    assert!(outer.len() > 30, "{} nodes on the outer side", outer.len());
+    assert_eq!(
+        inner.len(),
+        outer.len(),
+        "nodes on the inner and outer sides"
+    );
+    for p in &outer {
+        let axis = bubblemesh_core::geom::P3::new(p.x, 0.0, 10.0);
+        let under = axis + (p - axis) * (10.0 / 11.0);
+        assert!(
+            inner.iter().any(|q| (q - under).norm() < 1e-9),
+            "no inner node straight in from {p:?}"
+        );
+    }
+    let least = smallest_dihedral(&m);
+    assert!(least > 10.0, "smallest dihedral angle {least}°");
+}

@@ -1,5 +1,5 @@
 //! Twin faces: the two sides of a wall thinner than the spacing get one
-//! mesh, the second a translate of the first.
+//! mesh, the second the first's carried across.
 //!
 //! Across a wall of thickness t below the spacing d no bubble fits, so the
 //! volume's tetrahedra join the nodes of one side to those of the other.
@@ -18,15 +18,24 @@
 //! later one's, node for node, and its boundary segments onto the later
 //! one's. Their boundaries then bound congruent regions, so the earlier
 //! face's triangulation carried by t is a triangulation of the later one:
-//! the same triangles, the same quality. It is taken unless the spacing at
-//! a carried node differs by more than [`SPACING_TOLERANCE`] from the
-//! spacing at the node it comes from (a spacing that changes across the
-//! wall keeps each side its own mesh).
+//! the same triangles, the same quality. Two curved faces are twins when
+//! the later is the earlier's offset surface at a distance t shorter than
+//! the spacing (a bent sheet's two sides: coaxial cylinders, concentric
+//! spheres): each point p carried to p + t·n(p), n the earlier face's unit
+//! normal there, lands on the later face, and the boundary nodes and
+//! segments match as for planes. The carried triangulation is then the
+//! later face's, stretched by (r + t)/r across a radius of curvature r.
+//! Either is taken unless the spacing at a carried node differs by more
+//! than [`SPACING_TOLERANCE`] from the spacing at the node it comes from
+//! (a spacing that changes across the wall keeps each side its own mesh).
 //!
 //! The later face's boundary nodes are then put exactly where the earlier
 //! face's are carried (they matched within [`MATCH`]·d): four nodes of two
-//! segments across the wall must be coplanar to the last bit, or the
-//! Delaunay tetrahedralization makes a flat tetrahedron of them.
+//! segments across a planar wall must be coplanar to the last bit, or the
+//! Delaunay tetrahedralization makes a flat tetrahedron of them. Across a
+//! curved wall those four nodes are not coplanar at all (the segments
+//! across are skew): the volume stage splits its prisms itself
+//! ([`Wall::Shell`], `volume::wall`).
 
 use std::collections::HashMap;
 
@@ -46,10 +55,14 @@ pub(crate) const SPACING_TOLERANCE: f64 = 0.1;
 /// congruent edges give their nodes in the last bits.
 const MATCH: f64 = 1e-6;
 
-/// A planar face's boundary as twinning compares it.
+/// A face's boundary as twinning compares it.
 #[derive(Clone, Debug)]
 struct Outline {
-    /// The unit normal of the plane (the sign is the parametrization's).
+    /// Whether the surface is a plane (twins by a translation) or curved
+    /// (twins by an offset along the normal).
+    planar: bool,
+    /// The unit normal at `origin` (the sign is the parametrization's);
+    /// a plane's everywhere.
     normal: V3,
     /// The boundary nodes, each once, ascending.
     nodes: Vec<u32>,
@@ -57,15 +70,15 @@ struct Outline {
     segments: Vec<[u32; 2]>,
     /// The mean of the boundary nodes' positions.
     centroid: P3,
-    /// A point of the plane from the surface alone (at
+    /// A point of the surface from the surface alone (at
     /// [`inside_domain`]), not from the mesh.
     origin: P3,
     /// The least spacing at the boundary nodes.
     d: f64,
 }
 
-/// The outline of every face that may have a twin: planar, with no
-/// embedded edge or vertex, its boundary meshed (`edge_nodes`, the nodes
+/// The outline of every face that may have a twin: with no embedded edge
+/// or vertex, its boundary meshed (`edge_nodes`, the nodes
 /// of each edge in order, their spacing in `node_d`).
 fn outlines(
     model: &Model,
@@ -77,10 +90,7 @@ fn outlines(
         .faces
         .iter()
         .map(|f| {
-            if !f.surface.is_planar()
-                || !f.embedded_edges.is_empty()
-                || !f.embedded_vertices.is_empty()
-                || f.loops.is_empty()
+            if !f.embedded_edges.is_empty() || !f.embedded_vertices.is_empty() || f.loops.is_empty()
             {
                 return None;
             }
@@ -115,6 +125,7 @@ fn outlines(
                 .map(|&k| node_d.get(k as usize).copied().unwrap_or(f64::NAN))
                 .fold(f64::INFINITY, f64::min);
             (d.is_finite() && d > 0.0).then_some(Outline {
+                planar: f.surface.is_planar(),
                 normal,
                 nodes,
                 segments,
@@ -126,36 +137,73 @@ fn outlines(
         .collect()
 }
 
-/// The slab between two twin faces, as the volume stage asks of it.
+/// The space between two twin faces, as the volume stage asks of it.
 #[derive(Clone, Debug)]
-pub(crate) struct Wall {
-    /// The earlier face's triangles.
-    triangles: Vec<[P3; 3]>,
-    /// The unit normal of the two planes.
-    normal: V3,
-    /// Where the earlier face's plane is along `normal` (p·normal).
-    from: f64,
-    /// How far the later face's plane is from it along `normal` (signed).
-    across: f64,
+pub(crate) enum Wall {
+    /// Between two planes.
+    Slab {
+        /// The earlier face's triangles.
+        triangles: Vec<[P3; 3]>,
+        /// The unit normal of the two planes.
+        normal: V3,
+        /// Where the earlier face's plane is along `normal` (p·normal).
+        from: f64,
+        /// How far the later face's plane is from it along `normal` (signed).
+        across: f64,
+    },
+    /// Between a curved face and its offset: the prisms between each of
+    /// the earlier face's triangles (corners 0–2) and its carried copy
+    /// (corners 3–5, in the same order), within the box `lo`–`hi`; `ids`
+    /// their corners' node ids in the mesh.
+    Shell {
+        prisms: Vec<[P3; 6]>,
+        ids: Vec<[u32; 6]>,
+        lo: P3,
+        hi: P3,
+    },
 }
 
 impl Wall {
-    /// Whether `p` lies between the two faces: strictly between their
-    /// planes (by more than 1e-9 of the thickness) and, seen along the
-    /// normal, inside the face.
+    /// Whether `p` lies between the two faces: strictly between them (by
+    /// more than 1e-9 of the thickness) and, seen across, inside the face.
     pub(crate) fn holds(&self, p: &P3) -> bool {
-        let s = (p.coords.dot(&self.normal) - self.from) / self.across;
-        if !(s > 1e-9 && s < 1.0 - 1e-9) {
-            return false;
+        match self {
+            Wall::Slab {
+                triangles,
+                normal,
+                from,
+                across,
+            } => {
+                let s = (p.coords.dot(normal) - from) / across;
+                if !(s > 1e-9 && s < 1.0 - 1e-9) {
+                    return false;
+                }
+                // p's shadow on the earlier face's plane, in one of its triangles
+                let q = p - normal * (s * across);
+                triangles.iter().any(|t| in_triangle(t, &q))
+            }
+            Wall::Shell { prisms, lo, hi, .. } => {
+                if (0..3).any(|i| p[i] < lo[i] || p[i] > hi[i]) {
+                    return false;
+                }
+                prisms.iter().any(|w| {
+                    // across the prism by its corners' mean offset
+                    let o = ((w[3] - w[0]) + (w[4] - w[1]) + (w[5] - w[2])) / 3.0;
+                    let n = (w[1] - w[0]).cross(&(w[2] - w[0]));
+                    let s = (p - w[0]).dot(&n) / o.dot(&n);
+                    s > 1e-9 && s < 1.0 - 1e-9 && in_triangle(&[w[0], w[1], w[2]], &(p - o * s))
+                })
+            }
         }
-        // p's shadow on the earlier face's plane, in one of its triangles
-        let q = p - self.normal * (s * self.across);
-        self.triangles.iter().any(|[a, b, c]| {
-            let n = (b - a).cross(&(c - a));
-            let side = |u: &P3, v: &P3| (v - u).cross(&(q - u)).dot(&n) >= 0.0;
-            side(a, b) && side(b, c) && side(c, a)
-        })
     }
+}
+
+/// Whether `q`, a point of the triangle's plane, is inside it (or on its
+/// sides).
+fn in_triangle([a, b, c]: &[P3; 3], q: &P3) -> bool {
+    let n = (b - a).cross(&(c - a));
+    let side = |u: &P3, v: &P3| (v - u).cross(&(q - u)).dot(&n) >= 0.0;
+    side(a, b) && side(b, c) && side(c, a)
 }
 
 /// What twinning keeps over one face stage: the faces' outlines, which
@@ -203,20 +251,30 @@ impl Twins {
         report: &mut FaceReport,
         out: &mut FaceOut,
     ) {
-        let Some((a, t, map)) = find(&self.outlines, &self.meshed, mesh, b) else {
+        let Some((a, offset, map)) = find(model, &self.outlines, &self.meshed, mesh, b) else {
             return;
         };
         // b's boundary nodes put exactly where a's are carried (module
         // docs; on as_0086 they were 1e-14 apart, and 24 flat tetrahedra
         // sent the volume to a refinement round), those a twin has not
         // pinned already
-        let snapped: Vec<(u32, P3)> = map
+        let sa = model.faces[a].surface.as_ref();
+        let Some(snapped) = map
             .iter()
             .filter(|(_, kb)| !self.pinned.contains(kb))
-            .map(|(&ka, &kb)| (kb, mesh.nodes[ka as usize].pos + t))
-            .collect();
+            .map(|(&ka, &kb)| Some((kb, offset.carry(sa, &mesh.nodes[ka as usize].pos, None)?)))
+            .collect::<Option<Vec<(u32, P3)>>>()
+        else {
+            return;
+        };
         let pinned: Vec<u32> = map.iter().flat_map(|(&ka, &kb)| [ka, kb]).collect();
-        let Some((carried, triangles)) = carry(model, spacing, mesh, (a, t, map), b) else {
+        let d = [a, b]
+            .iter()
+            .filter_map(|&f| self.outlines[f].as_ref().map(|o| o.d))
+            .fold(f64::INFINITY, f64::min);
+        let Some((carried, (prisms, mut ids))) =
+            carry(model, spacing, mesh, (a, offset, map), b, d)
+        else {
             return;
         };
         for (kb, p) in snapped {
@@ -227,46 +285,147 @@ impl Twins {
         report.bubbles = carried.nodes.len();
         report.triangles = carried.triangles.len();
         *out = carried;
-        let (Some(normal), Some(first)) = (t.try_normalize(0.0), triangles.first()) else {
+        let Some(first) = prisms.first() else {
             return;
         };
-        self.walls.push(Wall {
-            from: first[0].coords.dot(&normal),
-            triangles,
-            normal,
-            across: t.norm(),
-        });
+        match offset {
+            Offset::Translate(t) => {
+                let Some(normal) = t.try_normalize(0.0) else {
+                    return;
+                };
+                self.walls.push(Wall::Slab {
+                    from: first[0].coords.dot(&normal),
+                    triangles: prisms.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+                    normal,
+                    across: t.norm(),
+                });
+            }
+            Offset::Normal(_) => {
+                // b's own nodes numbered as `append_to` will number them
+                let next = mesh.nodes.len() as u32;
+                for c in ids.iter_mut().flat_map(|w| &mut w[3..]) {
+                    if *c >= FaceOut::OWN {
+                        *c = next + (*c - FaceOut::OWN);
+                    }
+                }
+                let (mut lo, mut hi) = (first[0], first[0]);
+                for p in prisms.iter().flatten() {
+                    lo = lo.inf(p);
+                    hi = hi.sup(p);
+                }
+                self.walls.push(Wall::Shell {
+                    prisms,
+                    ids,
+                    lo,
+                    hi,
+                });
+            }
+        }
     }
 }
 
-/// The earlier face whose mesh face `b` takes, carried by a translation
-/// (see the module docs): `(a, t, boundary node of a → boundary node of
-/// b)`. `meshed[a]` says which faces are in `mesh` now.
+/// How a twin's points are carried onto the other face.
+#[derive(Clone, Copy, Debug)]
+enum Offset {
+    /// Planes: by this translation (along their normal).
+    Translate(V3),
+    /// Curved faces: by this signed distance along the earlier face's unit
+    /// normal at the point (the later face is the earlier one's offset
+    /// surface, as the two sides of a bent sheet: coaxial cylinders,
+    /// concentric spheres).
+    Normal(f64),
+}
+
+impl Offset {
+    /// `p`, a point of `surface` at `params` (found by
+    /// [`Surface::inverse`](crate::geom::Surface::inverse) when `None`),
+    /// carried across. `None` where the normal is not defined there.
+    fn carry(
+        &self,
+        surface: &dyn crate::geom::Surface,
+        p: &P3,
+        params: Option<[f64; 2]>,
+    ) -> Option<P3> {
+        match *self {
+            Offset::Translate(t) => Some(p + t),
+            Offset::Normal(t) => {
+                let [u, v] = params.or_else(|| surface.inverse(p, None))?;
+                let (_, su, sv) = surface.tangents(u, v);
+                Some(p + su.cross(&sv).try_normalize(0.0)? * t)
+            }
+        }
+    }
+}
+
+/// The earlier face whose mesh face `b` takes, carried across (see the
+/// module docs): `(a, offset, boundary node of a → boundary node of b)`.
+/// `meshed[a]` says which faces are in `mesh` now.
 fn find(
+    model: &Model,
     outlines: &[Option<Outline>],
     meshed: &[bool],
     mesh: &Mesh,
     b: usize,
-) -> Option<(usize, V3, HashMap<u32, u32>)> {
+) -> Option<(usize, Offset, HashMap<u32, u32>)> {
     let ob = outlines.get(b)?.as_ref()?;
     (0..b).find_map(|a| {
         let oa = outlines[a].as_ref()?;
         if !meshed[a]
+            || oa.planar != ob.planar
             || oa.nodes.len() != ob.nodes.len()
             || oa.segments.len() != ob.segments.len()
-            || oa.normal.cross(&ob.normal).norm() > 1e-9
         {
             return None;
         }
         let d = oa.d.min(ob.d);
-        let t = ob.centroid - oa.centroid;
-        let across = t.dot(&ob.normal);
-        // along the normal, shorter than the spacing, not zero
-        if (t - ob.normal * across).norm() > MATCH * d || !(across.abs() < d) || across == 0.0 {
-            return None;
-        }
-        let map = match_nodes(mesh, &oa.nodes, &ob.nodes, &t, MATCH * d)?;
-        let mut carried: Vec<[u32; 2]> = oa
+        // `probe` carries a's boundary nodes to find their partners,
+        // `offset` carries the mesh
+        let (probe, offset) = if oa.planar {
+            if oa.normal.cross(&ob.normal).norm() > 1e-9 {
+                return None;
+            }
+            let t = ob.centroid - oa.centroid;
+            let across = t.dot(&ob.normal);
+            // along the normal, shorter than the spacing, not zero
+            if (t - ob.normal * across).norm() > MATCH * d || !(across.abs() < d) || across == 0.0 {
+                return None;
+            }
+            // the translation along the normal, from the two planes alone:
+            // where the plane is normal to an axis, the carried nodes then
+            // differ from theirs in that coordinate alone; and it does not
+            // depend on where b's nodes are, so that snapping them twice (a
+            // re-meshing of a twinned mesh) puts them where it put them once
+            let across = (ob.origin - oa.origin).dot(&ob.normal);
+            if !across.is_finite() {
+                return None;
+            }
+            (Offset::Translate(t), Offset::Translate(ob.normal * across))
+        } else {
+            // each node moves by less than the spacing, so the centroids do
+            if !((ob.centroid - oa.centroid).norm() < d) {
+                return None;
+            }
+            // the distance from a's origin to b's surface along a's normal
+            // there, from the two surfaces alone (as for planes)
+            let sb = model.faces[b].surface.as_ref();
+            let q = sb.inverse(&oa.origin, None).map(|[u, v]| sb.point(u, v))?;
+            let across = (q - oa.origin).dot(&oa.normal);
+            if (q - oa.origin - oa.normal * across).norm() > MATCH * d
+                || !(across.abs() < d)
+                || across == 0.0
+            {
+                return None;
+            }
+            (Offset::Normal(across), Offset::Normal(across))
+        };
+        let sa = model.faces[a].surface.as_ref();
+        let carried: Vec<(u32, P3)> = oa
+            .nodes
+            .iter()
+            .map(|&k| Some((k, probe.carry(sa, &mesh.nodes[k as usize].pos, None)?)))
+            .collect::<Option<_>>()?;
+        let map = match_nodes(mesh, &carried, &ob.nodes, MATCH * d)?;
+        let mut segments: Vec<[u32; 2]> = oa
             .segments
             .iter()
             .map(|s| {
@@ -274,29 +433,14 @@ fn find(
                 [p.min(q), p.max(q)]
             })
             .collect();
-        carried.sort_unstable();
-        if carried != ob.segments {
-            return None;
-        }
-        // the translation along the normal, from the two planes alone:
-        // where the plane is normal to an axis, the carried nodes then
-        // differ from theirs in that coordinate alone; and it does not
-        // depend on where b's nodes are, so that snapping them twice (a
-        // re-meshing of a twinned mesh) puts them where it put them once
-        let across = (ob.origin - oa.origin).dot(&ob.normal);
-        across.is_finite().then(|| (a, ob.normal * across, map))
+        segments.sort_unstable();
+        (segments == ob.segments).then_some((a, offset, map))
     })
 }
 
-/// Each of `from` carried by `t` to the one of `to` within `tol`, one to
-/// one; `None` where any has no partner.
-fn match_nodes(
-    mesh: &Mesh,
-    from: &[u32],
-    to: &[u32],
-    t: &V3,
-    tol: f64,
-) -> Option<HashMap<u32, u32>> {
+/// Each node of `from`, carried to its point, to the node of `to` within
+/// `tol` of it, one to one; `None` where any has no partner.
+fn match_nodes(mesh: &Mesh, from: &[(u32, P3)], to: &[u32], tol: f64) -> Option<HashMap<u32, u32>> {
     // a grid of cells of side `tol`: a partner is in the cell of the
     // carried point or a neighbour
     let cell = |p: &P3| [p.x, p.y, p.z].map(|c| (c / tol).floor() as i64);
@@ -308,8 +452,7 @@ fn match_nodes(
     }
     let mut map = HashMap::with_capacity(from.len());
     let mut taken = std::collections::HashSet::with_capacity(from.len());
-    for &k in from {
-        let p = mesh.nodes[k as usize].pos + t;
+    for &(k, p) in from {
         let c = cell(&p);
         let mut partner = None;
         for dx in -1..=1 {
@@ -336,30 +479,47 @@ fn match_nodes(
     Some(map)
 }
 
-/// Face `a`'s mesh (its triangles and own nodes in `mesh`) carried by `t`
-/// onto face `b`, boundary nodes through `map`; triangles counter-clockwise
-/// in `b`'s (u,v) as the face pipeline gives them; with `a`'s triangles
-/// as they are (the wall's, [`Wall`]). `None` where a carried
-/// node cannot be put on `b`'s surface, or the spacing there is not within
-/// [`SPACING_TOLERANCE`] of its origin's.
+/// The prisms between a face's triangles and their carried copies: their
+/// corners (0–2 the triangle's, 3–5 their copies, in the same order) and
+/// the corners' node ids (a carried node's as [`FaceOut`] numbers it).
+type Prisms = (Vec<[P3; 6]>, Vec<[u32; 6]>);
+
+/// Face `a`'s mesh (its triangles and own nodes in `mesh`) carried by
+/// `offset` onto face `b`, boundary nodes through `map`; triangles
+/// counter-clockwise in `b`'s (u,v) as the face pipeline gives them; with
+/// the prisms between `a`'s triangles as they are and carried (the wall's,
+/// [`Wall`]). `None` where a carried node is not on `b`'s surface (within
+/// [`MATCH`]·d), or the spacing there is not within [`SPACING_TOLERANCE`]
+/// of its origin's.
 fn carry(
     model: &Model,
     spacing: &dyn Spacing,
     mesh: &Mesh,
-    (a, t, map): (usize, V3, HashMap<u32, u32>),
+    (a, offset, map): (usize, Offset, HashMap<u32, u32>),
     b: usize,
-) -> Option<(FaceOut, Vec<[P3; 3]>)> {
+    d: f64,
+) -> Option<(FaceOut, Prisms)> {
     let (ea, eb) = (EntityRef::new(2, a as u32), EntityRef::new(2, b as u32));
-    let surface = model.faces[b].surface.as_ref();
+    let (sa, surface) = (
+        model.faces[a].surface.as_ref(),
+        model.faces[b].surface.as_ref(),
+    );
     let uniform = spacing.constant().is_some();
     let mut own: HashMap<u32, u32> = HashMap::new();
     let mut nodes = Vec::new();
     let mut triangles = Vec::new();
-    let mut source = Vec::new();
+    let mut prisms = Vec::new();
+    let mut ids = Vec::new();
     for tri in mesh.triangles.iter().filter(|e| e.entity == ea) {
-        source.push(tri.nodes.map(|k| mesh.nodes[k as usize].pos));
+        let mut prism = [P3::origin(); 6];
+        for (i, &k) in tri.nodes.iter().enumerate() {
+            let n = &mesh.nodes[k as usize];
+            prism[i] = n.pos;
+            prism[i + 3] = offset.carry(sa, &n.pos, (n.entity == ea).then_some(n.params))?;
+        }
+        prisms.push(prism);
         let mut corners = [0u32; 3];
-        for (c, &k) in corners.iter_mut().zip(&tri.nodes) {
+        for ((c, &k), pos) in corners.iter_mut().zip(&tri.nodes).zip(&prism[3..]) {
             *c = if let Some(&j) = map.get(&k) {
                 j
             } else {
@@ -370,8 +530,12 @@ fn carry(
                 match own.get(&k) {
                     Some(&j) => j,
                     None => {
-                        let pos = n.pos + t;
+                        let pos = *pos;
                         let params = surface.inverse(&pos, None)?;
+                        let [u, v] = params;
+                        if !((surface.point(u, v) - pos).norm() <= MATCH * d) {
+                            return None;
+                        }
                         if !uniform {
                             let at = |point: P3, entity: EntityRef, params: [f64; 2]| {
                                 spacing.spacing(&SpacingQuery {
@@ -397,15 +561,28 @@ fn carry(
                 }
             };
         }
+        ids.push([
+            tri.nodes[0],
+            tri.nodes[1],
+            tri.nodes[2],
+            corners[0],
+            corners[1],
+            corners[2],
+        ]);
         triangles.push(corners);
     }
     if triangles.is_empty() {
         return None;
     }
-    // counter-clockwise in b's (u,v): the sign of its normal su × sv
-    let [u, v] = inside_domain(surface);
-    let (_, su, sv) = surface.tangents(u, v);
-    let n = su.cross(&sv);
+    // counter-clockwise in b's (u,v): the sign of its normal su × sv (a
+    // plane's anywhere, a curved face's at the triangle)
+    let normal_at = |[u, v]: [f64; 2]| {
+        let (_, su, sv) = surface.tangents(u, v);
+        su.cross(&sv)
+    };
+    let plane = surface
+        .is_planar()
+        .then(|| normal_at(inside_domain(surface)));
     let pos = |c: u32| {
         if c >= FaceOut::OWN {
             nodes[(c - FaceOut::OWN) as usize].pos
@@ -415,6 +592,12 @@ fn carry(
     };
     for tri in &mut triangles {
         let [p, q, r] = tri.map(pos);
+        let n = match plane {
+            Some(n) => n,
+            None => {
+                normal_at(surface.inverse(&P3::from((p.coords + q.coords + r.coords) / 3.0), None)?)
+            }
+        };
         if (q - p).cross(&(r - p)).dot(&n) < 0.0 {
             tri.swap(1, 2);
         }
@@ -425,7 +608,7 @@ fn carry(
             kept: 0,
             triangles,
         },
-        source,
+        (prisms, ids),
     ))
 }
 

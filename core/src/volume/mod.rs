@@ -48,6 +48,7 @@ pub(crate) mod recover;
 pub(crate) mod shell;
 pub(crate) mod split;
 pub(crate) mod tet;
+mod wall;
 mod warm;
 
 pub use tet::SliverStats;
@@ -461,6 +462,9 @@ pub struct VolumeReport {
     /// Flat tetrahedra on a boundary quadrilateral removed at the end,
     /// their pairs turned ([`recover::turn_flat_quads`]).
     pub flat_quads: usize,
+    /// Prisms of curved twin walls whose tetrahedra were re-split at the
+    /// end ([`wall::Prisms::split`]).
+    pub wall_prisms: usize,
     /// Boundary edges split on the geometry before the connection, and
     /// where ([`split`]): there the face meshes are finer than requested.
     pub boundary_splits: split::Splits,
@@ -878,6 +882,14 @@ fn attempt(
         First::GiveUp(frac) => return Ok(Attempt::GiveUp(frac)),
         First::Connected(qs) => qs,
     };
+    // curved twin walls as prisms before the sliver pass spends Steiner
+    // points on the slivers between them (see [`wall`]), and again after
+    // it, whose re-connections make them anew
+    let mut prisms = wall::Prisms::new(job.walls, &boundary.fixed_ids, &tm.pos);
+    let first_qs = match prisms.split(&mut tm) {
+        0 => first_qs,
+        _ => Some(tm.objectives()),
+    };
     let t = Instant::now();
     if !job.opts.fast {
         let inside = |p: &P3| sys.carrier.contains_point(p);
@@ -886,6 +898,7 @@ fn attempt(
         let release = warm.is_some() && !job.opts.warm.as_deref().is_some_and(|w| w.local);
         remove_slivers(
             (&boundary.local, boundary.n_fixed()),
+            &mut prisms,
             n_keep,
             release,
             &mut tm,
@@ -901,6 +914,7 @@ fn attempt(
             return Ok(Attempt::GiveUp(frac));
         }
     }
+    rep.wall_prisms = prisms.split(&mut tm);
     if !job.opts.fast {
         let inside = |p: &P3| sys.carrier.contains_point(p);
         rep.steiner_in_place = steiner_in_place(&mut tm, inside);
@@ -1023,8 +1037,10 @@ fn connect_keeping(
             };
             // a Steiner round's re-connection that misses boundary
             // triangles hands their kept tetrahedra over as above
+            // (a re-meshing's cavity keeps no twin walls of its own)
             let done = remove_slivers(
                 (&cav.boundary, cav.n_fixed),
+                &mut wall::Prisms::default(),
                 cav.n_keep,
                 false,
                 &mut c,
@@ -1300,6 +1316,7 @@ fn connect_first(
 #[allow(clippy::too_many_arguments)]
 fn remove_slivers(
     sides: (&[[u32; 3]], usize),
+    prisms: &mut wall::Prisms,
     n_keep: usize,
     release: bool,
     tm: &mut TetMesh,
@@ -1342,7 +1359,9 @@ fn remove_slivers(
         .tets
         .iter()
         .filter(|t| {
-            locked(t, &tm.movable) && crate::measure::tet_radius_ratio_of(&tm.pos, t) < FLAT_Q
+            locked(t, &tm.movable)
+                && crate::measure::tet_radius_ratio_of(&tm.pos, t) < FLAT_Q
+                && !prisms.within(t)
         })
         .cloned()
         .collect();
@@ -1354,11 +1373,11 @@ fn remove_slivers(
     let mut rounds = SteinerRounds::default();
     for round in 0..STEINER_ROUNDS {
         // and those that the sliver pass left
-        work.extend(
-            tm.tets.iter().filter(|t| {
-                locked(t, &tm.movable) && tet::star::objective_of(&tm.pos, t) < TARGET_Q
-            }),
-        );
+        work.extend(tm.tets.iter().filter(|t| {
+            locked(t, &tm.movable)
+                && tet::star::objective_of(&tm.pos, t) < TARGET_Q
+                && !prisms.within(t)
+        }));
         let extra = steiner_points(&tm.pos, &work, &tm.d, &inside);
         let go_on = rounds.worth_a_round(round, &tm.pos, &work, extra.len());
         work.clear();
@@ -1399,6 +1418,7 @@ fn remove_slivers(
             pos: pos2,
             d: d2,
         };
+        prisms.split(tm);
         let s = remove_slivers(tm, &params);
         rep.slivers.moves += s.moves;
         rep.slivers.flips += s.flips;
