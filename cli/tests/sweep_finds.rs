@@ -571,3 +571,19 @@ fn the_two_sides_of_a_bend_thinner_than_the_spacing_are_one_mesh_carried_across(
     let least = smallest_dihedral(&m);
     assert!(least > 10.0, "smallest dihedral angle {least}°");
 }
+
+/// A cylinder with a hole, a pocket, a void of radius 3.44 and fillets of
+/// radius 1.03 on 17 of its edges (`bench/random_parts.py --seed 10`, part
+/// 19), where OpenCascade's fillets left two faces passing through each
+/// other: the surface mesh crosses itself there at every size (at d = 1
+/// too), Gmsh's HXT fails, and ours failed with "the surface mesh is not
+/// Delaunay there — try a finer size", advice no size follows. The error
+/// now names the two faces and where they cross.
+#[test]
+fn a_solid_whose_faces_cross_is_refused_naming_the_two_faces() {
+    let err = refusal("crossing_faces.step", 3.418609734987321, 3);
+    assert!(
+        err.contains("the surface mesh passes through itself: face 12 (\"#1881\") crosses face 28 (\"#3750\") at (9.568"),
+        "{err}"
+    );
+}

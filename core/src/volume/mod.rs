@@ -43,6 +43,7 @@
 pub use crate::options::VolumeLattice;
 
 pub(crate) mod connect;
+mod crossing;
 mod keep;
 pub(crate) mod recover;
 pub(crate) mod shell;
@@ -510,6 +511,7 @@ pub(crate) fn boundary_of(
 fn connect_error(
     e: connect::Connect3dError,
     boundary: &[[u32; 3]],
+    model: &crate::model::Model,
     mesh: &crate::mesh::Mesh,
 ) -> MeshError {
     let connect::Connect3dError::NotConforming { triangles, .. } = &e else {
@@ -542,8 +544,32 @@ fn connect_error(
             crate::measure::triangle_circumball(&a, &b, &c)
         })
         .collect();
+    // a boundary that passes through itself has no tetrahedralization:
+    // say where, and whose faces
+    let mut message = e.to_string();
+    let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
+    if let Some((i, j, p)) = crossing::first_crossing(&pos, boundary) {
+        let of: std::collections::HashMap<[u32; 3], EntityRef> = mesh
+            .triangles
+            .iter()
+            .map(|t| (sorted(t.nodes), t.entity))
+            .collect();
+        let face = |k: usize| {
+            of.get(&sorted(boundary[k]))
+                .map_or_else(|| "a face".to_string(), |&e| model.describe(e))
+        };
+        message += &format!(
+            "; the surface mesh passes through itself: {} crosses {} at ({:.6}, {:.6}, {:.6}) \
+             (where the model's faces themselves cross, the solid is invalid and no size cures it)",
+            face(i),
+            face(j),
+            p.x,
+            p.y,
+            p.z
+        );
+    }
     MeshError::Refinable {
-        message: e.to_string(),
+        message,
         faces,
         spots,
     }
@@ -905,7 +931,7 @@ fn attempt(
             first_qs,
             inside,
             &mut rep,
-            &|e| connect_error(e, &boundary.global, mesh),
+            &|e| connect_error(e, &boundary.global, job.model, mesh),
         )?;
     }
     rep.sliver_s = t.elapsed().as_secs_f64();
@@ -1267,7 +1293,7 @@ fn connect_first(
     let n_fixed = boundary.n_fixed();
     let t = std::time::Instant::now();
     let conn = connect::connect_volume(&tm.pos, n_fixed, &boundary.local)
-        .map_err(|e| connect_error(e, &boundary.global, mesh))?;
+        .map_err(|e| connect_error(e, &boundary.global, job.model, mesh))?;
     rep.delaunay_s = t.elapsed().as_secs_f64();
     let mut first_qs = None;
     if lattice != Lattice::Fcc && !job.opts.fast {
