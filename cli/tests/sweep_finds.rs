@@ -587,3 +587,47 @@ fn a_solid_whose_faces_cross_is_refused_naming_the_two_faces() {
         "{err}"
     );
 }
+
+/// A plate 1 thick turned out of every axis (made with Gmsh's OpenCascade
+/// kernel: `addBox(0,0,0,100,80,1)` less `addCylinder(40,40,-1,0,0,5,15)`,
+/// turned 29° about the axis (1,2,3) through (50,40,0)). At d = 6 its
+/// corner edges, 1 long, grade the spacing at its boundary nodes down to 1,
+/// and twins were asked to be thinner than that least spacing: the two
+/// sides were not twins, and the tetrahedra across were the Delaunay
+/// tetrahedralization's (smallest dihedral angle 6.28°). Twins are asked
+/// to be thinner than the median spacing now. Carried across, the
+/// quadrilaterals between the sides are planar only to rounding, and the
+/// Delaunay tetrahedralization left slivers between two prisms' splits
+/// (6.12°); the plate's tetrahedra are now its prisms'
+/// (`core/src/volume/wall.rs`): 8.53°.
+#[test]
+fn a_thin_plate_out_of_every_axis_is_one_mesh_carried_across_in_prisms() {
+    let m = mesh("tilted_plate.step", 6.0, 3);
+    assert_closed_and_referenced(&m, "tilted_plate.step --dim 3");
+    // the plate's normal: z turned 29° about (1,2,3) (Rodrigues)
+    let k = bubblemesh_core::V3::new(1.0, 2.0, 3.0).normalize();
+    let (s, c) = 29f64.to_radians().sin_cos();
+    let z = bubblemesh_core::V3::z();
+    let n = z * c + k.cross(&z) * s + k * (k.dot(&z) * (1.0 - c));
+    let origin = bubblemesh_core::geom::P3::new(50.0, 40.0, 0.0);
+    let height = |p: &bubblemesh_core::geom::P3| (p - origin).dot(&n);
+    let side = |h: f64| -> Vec<bubblemesh_core::geom::P3> {
+        m.nodes
+            .iter()
+            .map(|n| n.pos)
+            .filter(|p| (height(p) - h).abs() < 1e-9)
+            .collect()
+    };
+    let (top, bottom) = (side(1.0), side(0.0));
+    assert!(top.len() > 50, "{} nodes on the top side", top.len());
+    assert_eq!(top.len(), bottom.len(), "nodes on the two sides");
+    for p in &top {
+        let under = p - n;
+        assert!(
+            bottom.iter().any(|q| (q - under).norm() < 1e-9),
+            "no node straight under {p:?}"
+        );
+    }
+    let least = smallest_dihedral(&m);
+    assert!(least > 8.0, "smallest dihedral angle {least}°");
+}

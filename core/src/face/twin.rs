@@ -34,8 +34,8 @@
 //! segments across a planar wall must be coplanar to the last bit, or the
 //! Delaunay tetrahedralization makes a flat tetrahedron of them. Across a
 //! curved wall those four nodes are not coplanar at all (the segments
-//! across are skew): the volume stage splits its prisms itself
-//! ([`Wall::Shell`], `volume::wall`).
+//! across are skew): the volume stage splits the prisms of every wall
+//! itself ([`Wall`], `volume::wall`).
 
 use std::collections::HashMap;
 
@@ -75,6 +75,12 @@ struct Outline {
     origin: P3,
     /// The least spacing at the boundary nodes.
     d: f64,
+    /// The median spacing at the boundary nodes: the spacing the face's
+    /// bubbles have, which a wall must be thinner than for no bubble to
+    /// fit across it (the least is a short edge's or a small hole's, which
+    /// grade the spacing down around them: a plate 1 thick whose corner
+    /// edges are 1 long has a least spacing of 1 at any d).
+    typical: f64,
 }
 
 /// The outline of every face that may have a twin: with no embedded edge
@@ -120,11 +126,13 @@ fn outlines(
                     .fold(V3::zeros(), |a, &k| a + mesh.nodes[k as usize].pos.coords)
                     / nodes.len() as f64,
             );
-            let d = nodes
+            let mut ds: Vec<f64> = nodes
                 .iter()
                 .map(|&k| node_d.get(k as usize).copied().unwrap_or(f64::NAN))
-                .fold(f64::INFINITY, f64::min);
-            (d.is_finite() && d > 0.0).then_some(Outline {
+                .collect();
+            let d = ds.iter().copied().fold(f64::INFINITY, f64::min);
+            let typical = *ds.select_nth_unstable_by(nodes.len() / 2, f64::total_cmp).1;
+            (d.is_finite() && d > 0.0 && typical.is_finite()).then_some(Outline {
                 planar: f.surface.is_planar(),
                 normal,
                 nodes,
@@ -132,18 +140,28 @@ fn outlines(
                 centroid,
                 origin,
                 d,
+                typical,
             })
         })
         .collect()
 }
 
-/// The space between two twin faces, as the volume stage asks of it.
+/// The space between two twin faces, as the volume stage asks of it: the
+/// prisms between each of the earlier face's triangles (corners 0–2) and
+/// its carried copy (corners 3–5, in the same order), and their corners'
+/// node ids in the mesh.
 #[derive(Clone, Debug)]
-pub(crate) enum Wall {
+pub(crate) struct Wall {
+    pub(crate) prisms: Vec<[P3; 6]>,
+    pub(crate) ids: Vec<[u32; 6]>,
+    shape: Shape,
+}
+
+/// What [`Wall::holds`] asks of a wall besides its prisms.
+#[derive(Clone, Debug)]
+enum Shape {
     /// Between two planes.
     Slab {
-        /// The earlier face's triangles.
-        triangles: Vec<[P3; 3]>,
         /// The unit normal of the two planes.
         normal: V3,
         /// Where the earlier face's plane is along `normal` (p·normal).
@@ -151,25 +169,17 @@ pub(crate) enum Wall {
         /// How far the later face's plane is from it along `normal` (signed).
         across: f64,
     },
-    /// Between a curved face and its offset: the prisms between each of
-    /// the earlier face's triangles (corners 0–2) and its carried copy
-    /// (corners 3–5, in the same order), within the box `lo`–`hi`; `ids`
-    /// their corners' node ids in the mesh.
-    Shell {
-        prisms: Vec<[P3; 6]>,
-        ids: Vec<[u32; 6]>,
-        lo: P3,
-        hi: P3,
-    },
+    /// Between a curved face and its offset, within the box `lo`–`hi`.
+    Shell { lo: P3, hi: P3 },
 }
 
 impl Wall {
     /// Whether `p` lies between the two faces: strictly between them (by
     /// more than 1e-9 of the thickness) and, seen across, inside the face.
     pub(crate) fn holds(&self, p: &P3) -> bool {
-        match self {
-            Wall::Slab {
-                triangles,
+        let base = |w: &[P3; 6]| [w[0], w[1], w[2]];
+        match &self.shape {
+            Shape::Slab {
                 normal,
                 from,
                 across,
@@ -180,18 +190,18 @@ impl Wall {
                 }
                 // p's shadow on the earlier face's plane, in one of its triangles
                 let q = p - normal * (s * across);
-                triangles.iter().any(|t| in_triangle(t, &q))
+                self.prisms.iter().any(|w| in_triangle(&base(w), &q))
             }
-            Wall::Shell { prisms, lo, hi, .. } => {
+            Shape::Shell { lo, hi } => {
                 if (0..3).any(|i| p[i] < lo[i] || p[i] > hi[i]) {
                     return false;
                 }
-                prisms.iter().any(|w| {
+                self.prisms.iter().any(|w| {
                     // across the prism by its corners' mean offset
                     let o = ((w[3] - w[0]) + (w[4] - w[1]) + (w[5] - w[2])) / 3.0;
                     let n = (w[1] - w[0]).cross(&(w[2] - w[0]));
                     let s = (p - w[0]).dot(&n) / o.dot(&n);
-                    s > 1e-9 && s < 1.0 - 1e-9 && in_triangle(&[w[0], w[1], w[2]], &(p - o * s))
+                    s > 1e-9 && s < 1.0 - 1e-9 && in_triangle(&base(w), &(p - o * s))
                 })
             }
         }
@@ -288,39 +298,34 @@ impl Twins {
         let Some(first) = prisms.first() else {
             return;
         };
-        match offset {
+        // b's own nodes numbered as `append_to` will number them
+        let next = mesh.nodes.len() as u32;
+        for c in ids.iter_mut().flat_map(|w| &mut w[3..]) {
+            if *c >= FaceOut::OWN {
+                *c = next + (*c - FaceOut::OWN);
+            }
+        }
+        let shape = match offset {
             Offset::Translate(t) => {
                 let Some(normal) = t.try_normalize(0.0) else {
                     return;
                 };
-                self.walls.push(Wall::Slab {
+                Shape::Slab {
                     from: first[0].coords.dot(&normal),
-                    triangles: prisms.iter().map(|p| [p[0], p[1], p[2]]).collect(),
                     normal,
                     across: t.norm(),
-                });
+                }
             }
             Offset::Normal(_) => {
-                // b's own nodes numbered as `append_to` will number them
-                let next = mesh.nodes.len() as u32;
-                for c in ids.iter_mut().flat_map(|w| &mut w[3..]) {
-                    if *c >= FaceOut::OWN {
-                        *c = next + (*c - FaceOut::OWN);
-                    }
-                }
                 let (mut lo, mut hi) = (first[0], first[0]);
                 for p in prisms.iter().flatten() {
                     lo = lo.inf(p);
                     hi = hi.sup(p);
                 }
-                self.walls.push(Wall::Shell {
-                    prisms,
-                    ids,
-                    lo,
-                    hi,
-                });
+                Shape::Shell { lo, hi }
             }
-        }
+        };
+        self.walls.push(Wall { prisms, ids, shape });
     }
 }
 
@@ -377,7 +382,7 @@ fn find(
         {
             return None;
         }
-        let d = oa.d.min(ob.d);
+        let (d, typical) = (oa.d.min(ob.d), oa.typical.min(ob.typical));
         // `probe` carries a's boundary nodes to find their partners,
         // `offset` carries the mesh
         let (probe, offset) = if oa.planar {
@@ -387,7 +392,10 @@ fn find(
             let t = ob.centroid - oa.centroid;
             let across = t.dot(&ob.normal);
             // along the normal, shorter than the spacing, not zero
-            if (t - ob.normal * across).norm() > MATCH * d || !(across.abs() < d) || across == 0.0 {
+            if (t - ob.normal * across).norm() > MATCH * d
+                || !(across.abs() < typical)
+                || across == 0.0
+            {
                 return None;
             }
             // the translation along the normal, from the two planes alone:
@@ -402,7 +410,7 @@ fn find(
             (Offset::Translate(t), Offset::Translate(ob.normal * across))
         } else {
             // each node moves by less than the spacing, so the centroids do
-            if !((ob.centroid - oa.centroid).norm() < d) {
+            if !((ob.centroid - oa.centroid).norm() < typical) {
                 return None;
             }
             // the distance from a's origin to b's surface along a's normal
@@ -411,7 +419,7 @@ fn find(
             let q = sb.inverse(&oa.origin, None).map(|[u, v]| sb.point(u, v))?;
             let across = (q - oa.origin).dot(&oa.normal);
             if (q - oa.origin - oa.normal * across).norm() > MATCH * d
-                || !(across.abs() < d)
+                || !(across.abs() < typical)
                 || across == 0.0
             {
                 return None;

@@ -463,8 +463,8 @@ pub struct VolumeReport {
     /// Flat tetrahedra on a boundary quadrilateral removed at the end,
     /// their pairs turned ([`recover::turn_flat_quads`]).
     pub flat_quads: usize,
-    /// Prisms of curved twin walls whose tetrahedra were re-split at the
-    /// end ([`wall::Prisms::split`]).
+    /// Prisms of twin walls whose tetrahedra were re-split at the end
+    /// ([`wall::Prisms::split`]).
     pub wall_prisms: usize,
     /// Boundary edges split on the geometry before the connection, and
     /// where ([`split`]): there the face meshes are finer than requested.
@@ -908,9 +908,9 @@ fn attempt(
         First::GiveUp(frac) => return Ok(Attempt::GiveUp(frac)),
         First::Connected(qs) => qs,
     };
-    // curved twin walls as prisms before the sliver pass spends Steiner
-    // points on the slivers between them (see [`wall`]), and again after
-    // it, whose re-connections make them anew
+    // twin walls as prisms before the sliver pass spends Steiner points on
+    // the slivers between them (see [`wall`]), and again after it, whose
+    // re-connections make them anew
     let mut prisms = wall::Prisms::new(job.walls, &boundary.fixed_ids, &tm.pos);
     let first_qs = match prisms.split(&mut tm) {
         0 => first_qs,
@@ -1404,7 +1404,9 @@ fn remove_slivers(
                 && tet::star::objective_of(&tm.pos, t) < TARGET_Q
                 && !prisms.within(t)
         }));
-        let extra = steiner_points(&tm.pos, &work, &tm.d, &inside);
+        let extra = steiner_points(&tm.pos, &work, &tm.d, |p: &P3| {
+            inside(p) && !prisms.holds(p)
+        });
         let go_on = rounds.worth_a_round(round, &tm.pos, &work, extra.len());
         work.clear();
         if !go_on {

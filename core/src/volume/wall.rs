@@ -1,75 +1,74 @@
-//! The tetrahedra of a curved twin wall as its prisms, three tetrahedra
-//! each ([`crate::face::twin::Wall::Shell`]).
+//! The tetrahedra of a twin wall as its prisms, three tetrahedra each
+//! ([`crate::face::twin::Wall`]).
 //!
-//! Between a curved face and its offset carried across a wall thinner
-//! than the spacing, the quadrilateral between two twin segments is
-//! twisted (its radial sides are skew): the Delaunay tetrahedralization
-//! splits the prisms on either side of it along different diagonals and
-//! fills the space between the two splits with a tetrahedron of those four
-//! corners, a sliver (as_0086's bends, 1 thick at d = 8: 2.6°). No flip
-//! removes it there: a prism whose three diagonals turn the same way round
-//! has no split (Schönhardt's prism), and both neighbours' would. Chosen
-//! for the whole wall at once, every prism has a split: the earlier face's
-//! nodes are ranked, and each quadrilateral is split along the diagonal
-//! from the end of lower rank, so that the lowest corner of each prism
-//! carries two of its diagonals (the rule of Dompierre et al. 1999, "How
-//! to subdivide pyramids, prisms and hexahedra into tetrahedra", with a
-//! rank for the global node order). A quadrilateral on the wall's rim
-//! keeps the diagonal the tetrahedra beyond it use, which orders its two
-//! ends; the ranks are a topological order of those (none where the rim's
-//! diagonals go round a loop of the wall's boundary all one way).
+//! Across a wall carried from one side to the other, the quadrilateral
+//! between two twin segments is twisted: across a bend its sides are skew,
+//! across a plane out of every axis it is planar only to rounding. The
+//! Delaunay tetrahedralization then splits the prisms on either side of it
+//! along different diagonals and fills the space between the two splits
+//! with a tetrahedron of those four corners, a sliver (as_0086's bends, 1
+//! thick at d = 8: 2.6°). No flip removes it there: a prism whose three
+//! diagonals turn the same way round has no split (Schönhardt's prism),
+//! and both neighbours' would. Chosen for the whole wall at once, every
+//! prism has a split: the earlier face's nodes are ranked, and each
+//! quadrilateral is split along the diagonal from the end of lower rank,
+//! so that the lowest corner of each prism carries two of its diagonals
+//! (the rule of Dompierre et al. 1999, "How to subdivide pyramids, prisms
+//! and hexahedra into tetrahedra", with a rank for the global node order).
+//! A quadrilateral on the wall's rim keeps the diagonal the tetrahedra
+//! beyond it use, which orders its two ends; the ranks are a topological
+//! order of those (none where the rim's diagonals go round a loop of the
+//! wall's boundary all one way).
 
 use std::collections::{HashMap, HashSet};
 
 use crate::face::twin::Wall;
 use crate::geom::P3;
-use crate::measure::{dihedral_extremes, orient3d, sorted3, tet_volume6, TET_FACES};
+use crate::measure::{dihedral_extremes, orient3d, sorted3, sorted4, tet_volume6, TET_FACES};
 
 use super::tet::mesh::TetMesh;
 
-/// The curved twin walls of a volume, their prisms in the node ids of its
+/// The twin walls of a volume, their prisms in the node ids of its
 /// tetrahedral mesh (where the fixed nodes keep their ids through every
 /// re-connection).
 #[derive(Default)]
 pub(super) struct Prisms {
-    /// Per wall, its prisms (see [`Wall::Shell`]) and its nodes.
-    walls: Vec<(Vec<[u32; 6]>, HashSet<u32>)>,
+    /// Per wall, its prisms (see [`Wall`]) and its nodes, and the wall.
+    walls: Vec<(Vec<[u32; 6]>, HashSet<u32>, Wall)>,
     /// Per wall, whether its last [`Prisms::split`] was made.
     split: Vec<bool>,
 }
 
 impl Prisms {
-    /// The curved walls of `walls` whose prisms' corners are all nodes
+    /// The walls of `walls` whose prisms' corners are all nodes
     /// (`fixed_ids[i]` is the mesh's id of node `i`, at `pos[i]`) where
     /// the wall has them.
     pub(super) fn new(walls: &[Wall], fixed_ids: &[u32], pos: &[P3]) -> Self {
         let mut local: HashMap<u32, u32> = HashMap::new();
-        if walls.iter().any(|w| matches!(w, Wall::Shell { .. })) {
+        if !walls.is_empty() {
             local.extend(fixed_ids.iter().enumerate().map(|(i, &g)| (g, i as u32)));
         }
         let walls: Vec<_> = walls
             .iter()
-            .filter_map(|w| match w {
-                Wall::Shell { prisms, ids, .. } => ids
+            .filter_map(|w| {
+                let prisms = w
+                    .ids
                     .iter()
-                    .zip(prisms)
-                    .map(|(w, p)| {
+                    .zip(&w.prisms)
+                    .map(|(ids, p)| {
                         let size = (p[1] - p[0]).norm().max((p[2] - p[0]).norm());
                         let mut out = [0u32; 6];
                         for i in 0..6 {
-                            out[i] = *local.get(&w[i])?;
+                            out[i] = *local.get(&ids[i])?;
                             if !((pos[out[i] as usize] - p[i]).norm() <= 1e-6 * size) {
                                 return None;
                             }
                         }
                         Some(out)
                     })
-                    .collect::<Option<Vec<_>>>(),
-                Wall::Slab { .. } => None,
-            })
-            .map(|prisms| {
+                    .collect::<Option<Vec<_>>>()?;
                 let nodes = prisms.iter().flatten().copied().collect();
-                (prisms, nodes)
+                Some((prisms, nodes, w.clone()))
             })
             .collect();
         Prisms {
@@ -79,15 +78,17 @@ impl Prisms {
     }
 
     /// Re-splits every wall whose tetrahedra in `tm` are exactly its
-    /// prisms' space (see the module docs). A wall is left as it is where
-    /// the tetrahedra among its nodes do not fill its prisms (a Steiner
-    /// point, a split boundary triangle), a quadrilateral's rim forces a
-    /// prism without a split, or the new tetrahedra's smallest dihedral
-    /// angle would be smaller than the old ones'. Returns the prisms
-    /// re-split.
+    /// prisms' space (see the module docs) where that raises their
+    /// smallest dihedral angle. A wall is left as it is where the
+    /// tetrahedra among its nodes do not fill its prisms (a Steiner point,
+    /// a split boundary triangle), a quadrilateral's rim forces a prism
+    /// without a split, or the new tetrahedra's smallest dihedral angle
+    /// would be no larger than the old ones' (a planar wall square to an
+    /// axis has its quadrilaterals planar to the last bit and its prisms
+    /// split already). Returns the prisms re-split.
     pub(super) fn split(&mut self, tm: &mut TetMesh) -> usize {
         let mut done = 0;
-        for (k, (prisms, nodes)) in self.walls.iter().enumerate() {
+        for (k, (prisms, nodes, _)) in self.walls.iter().enumerate() {
             let n = split_wall(prisms, nodes, tm);
             self.split[k] = n.is_some();
             done += n.unwrap_or(0);
@@ -102,21 +103,47 @@ impl Prisms {
         self.walls
             .iter()
             .zip(&self.split)
-            .any(|((_, nodes), &split)| split && t.iter().all(|k| nodes.contains(k)))
+            .any(|((_, nodes, _), &split)| split && t.iter().all(|k| nodes.contains(k)))
+    }
+
+    /// Whether `p` is inside a wall that its last [`Prisms::split`]
+    /// split: no Steiner point goes there (it would leave the wall's
+    /// tetrahedra no longer its prisms', and make them thinner).
+    pub(super) fn holds(&self, p: &P3) -> bool {
+        self.walls
+            .iter()
+            .zip(&self.split)
+            .any(|((_, _, wall), &split)| split && wall.holds(p))
     }
 }
 
 /// [`Prisms::split`] for one wall; `None` where it is left as it is.
 fn split_wall(prisms: &[[u32; 6]], nodes: &HashSet<u32>, tm: &mut TetMesh) -> Option<usize> {
+    // the quadrilaterals on the wall's rim (over an edge of one prism's
+    // triangle only): a tetrahedron of their four corners lies against the
+    // wall, not in it (flat to rounding where the rim is a planar
+    // quadrilateral that is not exactly so)
+    let mut sides: HashMap<[u32; 2], u32> = HashMap::new();
+    for p in prisms {
+        for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+            *sides.entry([p[i].min(p[j]), p[i].max(p[j])]).or_default() += 1;
+        }
+    }
+    let mut rim_quads = HashSet::new();
+    for p in prisms {
+        for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+            if sides[&[p[i].min(p[j]), p[i].max(p[j])]] == 1 {
+                rim_quads.insert(sorted4([p[i], p[j], p[i + 3], p[j + 3]]));
+            }
+        }
+    }
     let old: Vec<usize> = (0..tm.tets.len())
         .filter(|&i| {
             let t = &tm.tets[i];
-            t.iter().all(|k| nodes.contains(k))
+            t.iter().all(|k| nodes.contains(k)) && !rim_quads.contains(&sorted4(*t))
         })
         .collect();
-    if old.is_empty() {
-        return None;
-    }
+
     let rim = outer_faces(old.iter().map(|&i| tm.tets[i]));
     // each quadrilateral's diagonal leaves from the end of lower rank
     // among the earlier face's nodes; a quadrilateral on the rim keeps
@@ -182,7 +209,10 @@ fn split_wall(prisms: &[[u32; 6]], nodes: &HashSet<u32>, tm: &mut TetMesh) -> Op
         })
         .fold(f64::INFINITY, f64::min)
     };
-    if least(&mut new.iter().copied()) < least(&mut old.iter().map(|&i| tm.tets[i])) {
+    // only where it raises the wall's smallest angle: a wall whose
+    // quadrilaterals are planar to the last bit (square to an axis) has
+    // its prisms split already, and the sliver pass may have done better
+    if !(least(&mut new.iter().copied()) > least(&mut old.iter().map(|&i| tm.tets[i]))) {
         return None;
     }
     let gone: HashSet<usize> = old.into_iter().collect();
