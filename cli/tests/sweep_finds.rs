@@ -542,18 +542,14 @@ fn the_two_sides_of_a_bend_thinner_than_the_spacing_are_one_mesh_carried_across(
     let radius = |p: &bubblemesh_core::geom::P3| {
         (p.y >= -1e-9 && p.z <= 10.0 + 1e-9).then(|| (p.y.powi(2) + (p.z - 10.0).powi(2)).sqrt())
     };
-    let inner: Vec<_> = m
-        .nodes
-        .iter()
-        .map(|n| n.pos)
-        .filter(|p| radius(p).is_some_and(|r| (r - 10.0).abs() < 1e-9))
-        .collect();
-    let outer: Vec<_> = m
-        .nodes
-        .iter()
-        .map(|n| n.pos)
-        .filter(|p| radius(p).is_some_and(|r| (r - 11.0).abs() < 1e-9))
-        .collect();
+    let at_radius = |r0: f64| -> Vec<_> {
+        m.nodes
+            .iter()
+            .map(|n| n.pos)
+            .filter(|p| radius(p).is_some_and(|r| (r - r0).abs() < 1e-9))
+            .collect()
+    };
+    let (inner, outer) = (at_radius(10.0), at_radius(11.0));
     assert!(outer.len() > 30, "{} nodes on the outer side", outer.len());
     assert_eq!(
         inner.len(),

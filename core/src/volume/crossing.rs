@@ -146,21 +146,7 @@ mod tests {
         let (pos, tris) = squares(false);
         assert!(first_crossing(&pos, &tris).is_none());
         // a closed box's triangles touch only along shared sides and corners
-        let pos: Vec<P3> = (0..8)
-            .map(|k| P3::new((k & 1) as f64, ((k >> 1) & 1) as f64, (k >> 2) as f64))
-            .collect();
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let tris: Vec<[u32; 3]> = quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect();
+        let (pos, tris) = crate::volume::shell::tests::cube();
         assert!(first_crossing(&pos, &tris).is_none());
     }
 }

@@ -541,12 +541,12 @@ fn enclosed_volume(pts: &[P3], tris: &[[u32; 3]]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The unit cube's surface split into 2 triangles per side, corners at
     /// integer points: rays through lattice points hit edges and vertices.
-    fn cube() -> (Vec<P3>, Vec<[u32; 3]>) {
+    pub(crate) fn cube() -> (Vec<P3>, Vec<[u32; 3]>) {
         let mut pts = Vec::new();
         for k in 0..8 {
             pts.push(P3::new(
