@@ -269,21 +269,26 @@ impl Twins {
         // sent the volume to a refinement round), those a twin has not
         // pinned already
         let sa = model.faces[a].surface.as_ref();
-        let Some(snapped) = map
-            .iter()
-            .filter(|(_, kb)| !self.pinned.contains(kb))
-            .map(|(&ka, &kb)| Some((kb, offset.carry(sa, &mesh.nodes[ka as usize].pos, None)?)))
-            .collect::<Option<Vec<(u32, P3)>>>()
+        // a's boundary nodes carried across, once (the prisms take them too)
+        let Some(across) = map
+            .keys()
+            .map(|&ka| Some((ka, offset.carry(sa, &mesh.nodes[ka as usize].pos, None)?)))
+            .collect::<Option<HashMap<u32, P3>>>()
         else {
             return;
         };
+        let snapped: Vec<(u32, P3)> = map
+            .iter()
+            .filter(|(_, kb)| !self.pinned.contains(kb))
+            .map(|(ka, &kb)| (kb, across[ka]))
+            .collect();
         let pinned: Vec<u32> = map.iter().flat_map(|(&ka, &kb)| [ka, kb]).collect();
         let d = [a, b]
             .iter()
             .filter_map(|&f| self.outlines[f].as_ref().map(|o| o.d))
             .fold(f64::INFINITY, f64::min);
         let Some((carried, (prisms, mut ids))) =
-            carry(model, spacing, mesh, (a, offset, map), b, d)
+            carry(model, spacing, mesh, (a, offset, map, across), b, d)
         else {
             return;
         };
@@ -493,7 +498,8 @@ fn match_nodes(mesh: &Mesh, from: &[(u32, P3)], to: &[u32], tol: f64) -> Option<
 type Prisms = (Vec<[P3; 6]>, Vec<[u32; 6]>);
 
 /// Face `a`'s mesh (its triangles and own nodes in `mesh`) carried by
-/// `offset` onto face `b`, boundary nodes through `map`; triangles
+/// `offset` onto face `b`, boundary nodes through `map` (and carried to
+/// `across`, where each node is kept once carried); triangles
 /// counter-clockwise in `b`'s (u,v) as the face pipeline gives them; with
 /// the prisms between `a`'s triangles as they are and carried (the wall's,
 /// [`Wall`]). `None` where a carried node is not on `b`'s surface (within
@@ -503,7 +509,7 @@ fn carry(
     model: &Model,
     spacing: &dyn Spacing,
     mesh: &Mesh,
-    (a, offset, map): (usize, Offset, HashMap<u32, u32>),
+    (a, offset, map, mut across): (usize, Offset, HashMap<u32, u32>, HashMap<u32, P3>),
     b: usize,
     d: f64,
 ) -> Option<(FaceOut, Prisms)> {
@@ -523,7 +529,14 @@ fn carry(
         for (i, &k) in tri.nodes.iter().enumerate() {
             let n = &mesh.nodes[k as usize];
             prism[i] = n.pos;
-            prism[i + 3] = offset.carry(sa, &n.pos, (n.entity == ea).then_some(n.params))?;
+            prism[i + 3] = match across.get(&k) {
+                Some(&p) => p,
+                None => {
+                    let p = offset.carry(sa, &n.pos, (n.entity == ea).then_some(n.params))?;
+                    across.insert(k, p);
+                    p
+                }
+            };
         }
         prisms.push(prism);
         let mut corners = [0u32; 3];

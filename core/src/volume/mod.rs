@@ -517,20 +517,18 @@ fn connect_error(
     let connect::Connect3dError::NotConforming { triangles, .. } = &e else {
         return MeshError::Volume(e);
     };
-    let sorted = |mut t: [u32; 3]| {
-        t.sort_unstable();
-        t
-    };
-    let wanted: std::collections::HashSet<[u32; 3]> = triangles
-        .iter()
-        .filter_map(|&k| boundary.get(k as usize))
-        .map(|&t| sorted(t))
-        .collect();
-    let mut faces: Vec<u32> = mesh
+    use crate::measure::sorted3;
+    // each boundary triangle's face
+    let face_of: std::collections::HashMap<[u32; 3], EntityRef> = mesh
         .triangles
         .iter()
-        .filter(|t| wanted.contains(&sorted(t.nodes)))
-        .map(|t| t.entity.id)
+        .map(|t| (sorted3(t.nodes), t.entity))
+        .collect();
+    let mut faces: Vec<u32> = triangles
+        .iter()
+        .filter_map(|&k| boundary.get(k as usize))
+        .filter_map(|&t| face_of.get(&sorted3(t)))
+        .map(|e| e.id)
         .collect();
     faces.sort_unstable();
     faces.dedup();
@@ -549,13 +547,9 @@ fn connect_error(
     let mut message = e.to_string();
     let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
     if let Some((i, j, p)) = crossing::first_crossing(&pos, boundary) {
-        let of: std::collections::HashMap<[u32; 3], EntityRef> = mesh
-            .triangles
-            .iter()
-            .map(|t| (sorted(t.nodes), t.entity))
-            .collect();
         let face = |k: usize| {
-            of.get(&sorted(boundary[k]))
+            face_of
+                .get(&sorted3(boundary[k]))
                 .map_or_else(|| "a face".to_string(), |&e| model.describe(e))
         };
         message += &format!(
@@ -623,6 +617,8 @@ struct Boundary {
     /// The same triangles, local node ids.
     local: Vec<[u32; 3]>,
     fixed_ids: Vec<u32>,
+    /// The local id of each of `fixed_ids` (global → local).
+    local_id: std::collections::HashMap<u32, u32>,
     fixed_pos: Vec<P3>,
     fixed_d: Vec<f64>,
     shell: Shell,
@@ -669,6 +665,7 @@ impl Boundary {
             global,
             local,
             fixed_ids,
+            local_id,
             fixed_pos,
             fixed_d,
             shell,
@@ -911,7 +908,7 @@ fn attempt(
     // twin walls as prisms before the sliver pass spends Steiner points on
     // the slivers between them (see [`wall`]), and again after it, whose
     // re-connections make them anew
-    let mut prisms = wall::Prisms::new(job.walls, &boundary.fixed_ids, &tm.pos);
+    let mut prisms = wall::Prisms::new(job.walls, &boundary.local_id, &tm.pos);
     let first_qs = match prisms.split(&mut tm) {
         0 => first_qs,
         _ => Some(tm.objectives()),
@@ -1342,7 +1339,7 @@ fn connect_first(
 #[allow(clippy::too_many_arguments)]
 fn remove_slivers(
     sides: (&[[u32; 3]], usize),
-    prisms: &mut wall::Prisms,
+    prisms: &mut wall::Prisms<'_>,
     n_keep: usize,
     release: bool,
     tm: &mut TetMesh,

@@ -32,22 +32,27 @@ use super::tet::mesh::TetMesh;
 /// tetrahedral mesh (where the fixed nodes keep their ids through every
 /// re-connection).
 #[derive(Default)]
-pub(super) struct Prisms {
-    /// Per wall, its prisms (see [`Wall`]) and its nodes, and the wall.
-    walls: Vec<(Vec<[u32; 6]>, HashSet<u32>, Wall)>,
+pub(super) struct Prisms<'w> {
+    /// The walls.
+    walls: Vec<Local<'w>>,
     /// Per wall, whether its last [`Prisms::split`] was made.
     split: Vec<bool>,
 }
 
-impl Prisms {
-    /// The walls of `walls` whose prisms' corners are all nodes
-    /// (`fixed_ids[i]` is the mesh's id of node `i`, at `pos[i]`) where
-    /// the wall has them.
-    pub(super) fn new(walls: &[Wall], fixed_ids: &[u32], pos: &[P3]) -> Self {
-        let mut local: HashMap<u32, u32> = HashMap::new();
-        if !walls.is_empty() {
-            local.extend(fixed_ids.iter().enumerate().map(|(i, &g)| (g, i as u32)));
-        }
+/// One wall in the tetrahedral mesh's node ids.
+struct Local<'w> {
+    /// Its prisms (see [`Wall`]).
+    prisms: Vec<[u32; 6]>,
+    /// Their corners.
+    nodes: HashSet<u32>,
+    wall: &'w Wall,
+}
+
+impl<'w> Prisms<'w> {
+    /// The walls of `walls` whose prisms' corners are all nodes (`local`
+    /// gives a mesh node's id here, `pos` where that node is) where the
+    /// wall has them.
+    pub(super) fn new(walls: &'w [Wall], local: &HashMap<u32, u32>, pos: &[P3]) -> Self {
         let walls: Vec<_> = walls
             .iter()
             .filter_map(|w| {
@@ -68,7 +73,11 @@ impl Prisms {
                     })
                     .collect::<Option<Vec<_>>>()?;
                 let nodes = prisms.iter().flatten().copied().collect();
-                Some((prisms, nodes, w.clone()))
+                Some(Local {
+                    prisms,
+                    nodes,
+                    wall: w,
+                })
             })
             .collect();
         Prisms {
@@ -88,7 +97,7 @@ impl Prisms {
     /// split already). Returns the prisms re-split.
     pub(super) fn split(&mut self, tm: &mut TetMesh) -> usize {
         let mut done = 0;
-        for (k, (prisms, nodes, _)) in self.walls.iter().enumerate() {
+        for (k, Local { prisms, nodes, .. }) in self.walls.iter().enumerate() {
             let n = split_wall(prisms, nodes, tm);
             self.split[k] = n.is_some();
             done += n.unwrap_or(0);
@@ -103,7 +112,7 @@ impl Prisms {
         self.walls
             .iter()
             .zip(&self.split)
-            .any(|((_, nodes, _), &split)| split && t.iter().all(|k| nodes.contains(k)))
+            .any(|(w, &split)| split && t.iter().all(|k| w.nodes.contains(k)))
     }
 
     /// Whether `p` is inside a wall that its last [`Prisms::split`]
@@ -113,7 +122,7 @@ impl Prisms {
         self.walls
             .iter()
             .zip(&self.split)
-            .any(|((_, _, wall), &split)| split && wall.holds(p))
+            .any(|(w, &split)| split && w.wall.holds(p))
     }
 }
 
