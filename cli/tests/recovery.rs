@@ -214,3 +214,29 @@ fn a_narrow_tip_of_as_0087_keeps_the_requested_spacing() {
         assert!(least > 12.0, "smallest angle {least}°");
     }
 }
+
+#[test]
+fn a_tip_closed_by_a_short_edge_of_as_0050_grades_from_that_edge() {
+    // face 51 is a spike 0.0014 wide at its tip, closed by a 0.033-long
+    // edge; graded from d/6 = 0.27, the first node on the spike's other
+    // edge sat 0.31 from the tip, its triangle had 0.29° and the
+    // tetrahedron on it 0.286° (Gmsh 4.15.2 HXT: 0.315°); a short edge of
+    // a cusp grades from its own length
+    let Some(p) = realstep("as_0050_extruder_drive_grabcad.stp") else {
+        return;
+    };
+    let (m, r) = mesh(&p, "1.6120730380010702", "3");
+    assert_closed_and_oriented(&m);
+    let least = support::smallest_dihedral(&m);
+    assert!(least > 1.0, "smallest dihedral angle {least}°");
+    let graded = r["engine"]["circle_points"]["short_edges"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| {
+            let length = e["length"].as_f64().unwrap();
+            length < e["requested"].as_f64().unwrap() / 6.0 && e["d"].as_f64() == Some(length)
+        })
+        .count();
+    assert!(graded > 0, "no edge below d/6 graded from its own length");
+}

@@ -378,19 +378,8 @@ fn a_sliver_across_a_thin_rib_gets_its_steiner_point_in_place() {
     let d = 79.0847 / 20.0;
     let m = mesh("rib_sliver.step", d, 3);
     assert_closed_and_referenced(&m, "rib_sliver.step --dim 3");
-    let least = smallest_dihedral(&m);
+    let least = support::smallest_dihedral(&m);
     assert!(least > 8.0, "smallest dihedral angle {least}°");
-}
-
-/// The smallest dihedral angle of the mesh's tetrahedra, degrees.
-fn smallest_dihedral(m: &Mesh) -> f64 {
-    m.tetrahedra
-        .iter()
-        .map(|t| {
-            let [a, b, c, e] = t.nodes.map(|n| m.nodes[n as usize].pos);
-            bubblemesh_core::measure::dihedral_extremes(&a, &b, &c, &e).0
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// A cylinder with a rib 0.32 thick, a boss, a dimple, a pocket and a hole
@@ -403,7 +392,7 @@ fn smallest_dihedral(m: &Mesh) -> f64 {
 fn a_sliver_among_fixed_nodes_that_is_not_the_worst_gets_its_point() {
     let m = mesh("locked_sliver_not_worst.step", 2.177486093690958, 3);
     assert_closed_and_referenced(&m, "locked_sliver_not_worst.step --dim 3");
-    let least = smallest_dihedral(&m);
+    let least = support::smallest_dihedral(&m);
     assert!(least > 1.8, "smallest dihedral angle {least}°");
 }
 
@@ -466,7 +455,7 @@ fn the_two_sides_of_a_plate_thinner_than_the_spacing_are_one_mesh_carried_across
         .sum::<f64>()
         / m.tetrahedra.len() as f64;
     assert!(mean > 0.30, "mean radius ratio {mean}");
-    let least = smallest_dihedral(&m);
+    let least = support::smallest_dihedral(&m);
     assert!(least > 5.7, "smallest dihedral angle {least}°");
 }
 
@@ -564,7 +553,7 @@ fn the_two_sides_of_a_bend_thinner_than_the_spacing_are_one_mesh_carried_across(
             "no inner node straight in from {p:?}"
         );
     }
-    let least = smallest_dihedral(&m);
+    let least = support::smallest_dihedral(&m);
     assert!(least > 10.0, "smallest dihedral angle {least}°");
 }
 
@@ -624,6 +613,6 @@ fn a_thin_plate_out_of_every_axis_is_one_mesh_carried_across_in_prisms() {
             "no node straight under {p:?}"
         );
     }
-    let least = smallest_dihedral(&m);
+    let least = support::smallest_dihedral(&m);
     assert!(least > 8.0, "smallest dihedral angle {least}°");
 }

@@ -37,7 +37,10 @@
 //! from c = max(its length, [`SHORT_EDGE_FLOOR`]·d) at [`GRADE`] (a small
 //! square hole, a narrow step: without it the triangles joining such a
 //! segment to neighbours at d were needles — as_40mm_capot.stp mean radius
-//! ratio 0.747, Gmsh 0.798; graded 0.85). `n` = 0 turns both off.
+//! ratio 0.747, Gmsh 0.798; graded 0.85). A short edge that is one of
+//! a cusp's two edges closes a tip, and grades from c = max(its length,
+//! [`TIP_EDGE_FLOOR`]·d): the first node on the tip's other edge then
+//! stands about its length from the tip. `n` = 0 turns both off.
 //!
 //! Cusps keep the requested spacing: where two edges of a face leave a
 //! vertex tangentially or nearly so (`cusp_ends`, within [`CUSP_ANGLE`]),
@@ -95,6 +98,16 @@ pub const SHORT_EDGE: f64 = 0.6;
 /// region for.
 pub const SHORT_EDGE_FLOOR: f64 = 1.0 / 6.0;
 
+/// The least spacing a short edge at a tip grades from (one of the two
+/// edges of a cusp, [`cusp_ends`]), as a fraction of the requested one.
+/// The tip's triangle joins the short edge to the first node on the other
+/// edge; that node a spacing c from the tip leaves the triangle the angle
+/// (l·θ + w)/c at it (l the short edge's length, θ the chords' angle, w how
+/// far the short edge's end stands off the other edge), so c is brought
+/// down to l: as_0050's 0.033-long edge closes a 0.0014-wide spike, and
+/// graded from d/6 its tip triangle had 0.29° and its tetrahedra 0.286°.
+pub const TIP_EDGE_FLOOR: f64 = 0.01;
+
 /// Samples (every c/2) of an edge from `t0` to `t1` shorter than
 /// [`SHORT_EDGE`] times the least requested spacing d `looks` saw on it,
 /// with the cap c = max(length, [`SHORT_EDGE_FLOOR`]·d); and its length, c
@@ -104,6 +117,7 @@ fn short_edge(
     t0: f64,
     t1: f64,
     looks: &[(P3, f64, f64, f64)],
+    floor: f64,
 ) -> Option<(Vec<Sample>, f64, f64, f64)> {
     let d = looks.iter().map(|l| l.1).fold(f64::INFINITY, f64::min);
     if !(d > 0.0 && d.is_finite()) {
@@ -113,7 +127,7 @@ fn short_edge(
     if !(length < SHORT_EDGE * d) {
         return None;
     }
-    let c = length.max(SHORT_EDGE_FLOOR * d);
+    let c = length.max(floor * d);
     let m = (SAMPLES_PER_CAP * length / c).ceil().max(1.0) as usize;
     let samples = (0..=m)
         .map(|k| Sample {
@@ -455,6 +469,9 @@ impl<'a> CirclePoints<'a> {
             n,
             ..Default::default()
         };
+        // the edges of a cusp: a short one among them closes a tip
+        let tips: std::collections::HashSet<u32> =
+            cusp_ends(model).into_iter().flat_map(|(e, _)| e).collect();
         for (ei, e) in model.edges.iter().enumerate() {
             let entity = EntityRef::new(1, ei as u32);
             // (point, requested d, cap, curvature) at parameter t
@@ -483,7 +500,14 @@ impl<'a> CirclePoints<'a> {
             // an edge much shorter than the spacing is one segment whose
             // ends are nodes: the spacing grows from its length around it
             // (see SHORT_EDGE)
-            if let Some((short, length, c, d)) = short_edge(e.curve.as_ref(), e.t0, e.t1, &looks) {
+            let floor = if tips.contains(&(ei as u32)) {
+                TIP_EDGE_FLOOR
+            } else {
+                SHORT_EDGE_FLOOR
+            };
+            if let Some((short, length, c, d)) =
+                short_edge(e.curve.as_ref(), e.t0, e.t1, &looks, floor)
+            {
                 samples.extend(short);
                 report.short_edges.push(ShortEdge {
                     edge: ei as u32,
@@ -1336,6 +1360,70 @@ mod tests {
             name: None,
         });
         m
+    }
+
+    /// A spike: the face between a line 10 long and a line back from its
+    /// end, closed by an edge 0.1 long whose end stands 0.005 off the
+    /// first line (the edges at the tip leave it 2.9° apart: a cusp).
+    fn spike_model() -> Model {
+        use crate::geom::{Plane, Segment};
+        use crate::model::{EdgeUse, Face, Loop};
+        let mut m = Model::default();
+        for p in [[0.0, 0.0], [10.0, 0.0], [9.9, 0.005]] {
+            m.vertices.push(Vertex {
+                point: P3::new(p[0], p[1], 0.0),
+                name: None,
+            });
+        }
+        for (start, end) in [(0u32, 1u32), (1, 2), (2, 0)] {
+            let [a, b] = [start, end].map(|v| m.vertices[v as usize].point);
+            m.edges.push(Edge {
+                curve: Arc::new(Segment(a, b)),
+                t0: 0.0,
+                t1: 1.0,
+                start,
+                end,
+                name: None,
+            });
+        }
+        m.faces.push(Face {
+            surface: Arc::new(Plane::xy()),
+            loops: vec![Loop {
+                edges: (0..3)
+                    .map(|edge| EdgeUse {
+                        edge,
+                        forward: true,
+                    })
+                    .collect(),
+            }],
+            embedded_edges: vec![],
+            embedded_vertices: vec![],
+            name: None,
+        });
+        m
+    }
+
+    /// A short edge that closes a tip grades from its own length (0.1001),
+    /// not from [`SHORT_EDGE_FLOOR`]·d (1/3 at d = 2), so the tip's first
+    /// node on the long edge comes about 0.1 from it.
+    #[test]
+    fn a_short_edge_at_a_tip_grades_from_its_length() {
+        let m = spike_model();
+        // (the far end, where the long edges meet, is a cusp too)
+        assert_eq!(cusp_ends(&m), vec![([0, 1], 1), ([0, 2], 0)]);
+        let d = Constant(2.0);
+        let cp = CirclePoints::new(&m, &d, 7).expect("the short edge grades");
+        let short = &cp.report().short_edges;
+        assert_eq!(short.len(), 1);
+        let l = 0.1f64.hypot(0.005);
+        assert!((short[0].length - l).abs() < 1e-9);
+        assert_eq!(short[0].d, short[0].length);
+        let at_tip = cp.spacing(&SpacingQuery {
+            point: P3::new(10.0, 0.0, 0.0),
+            entity: EntityRef::new(1, 0),
+            params: [1.0, 0.0],
+        });
+        assert!((at_tip - l).abs() < 1e-9, "spacing at the tip {at_tip}");
     }
 
     /// At a cusp (`cusp_model(20)`, d = 12) the short edge's grading does

@@ -76,3 +76,14 @@ pub fn smallest_angle(m: &bubblemesh_core::Mesh) -> f64 {
         })
         .fold(f64::INFINITY, f64::min)
 }
+
+/// The smallest dihedral angle of the mesh's tetrahedra, in degrees.
+pub fn smallest_dihedral(m: &bubblemesh_core::Mesh) -> f64 {
+    m.tetrahedra
+        .iter()
+        .map(|t| {
+            let [a, b, c, e] = t.nodes.map(|n| m.nodes[n as usize].pos);
+            bubblemesh_core::measure::dihedral_extremes(&a, &b, &c, &e).0
+        })
+        .fold(f64::INFINITY, f64::min)
+}
