@@ -487,6 +487,9 @@ fn run_mesh(a: MeshArgs) -> Result<(), CliError> {
     if let Some(line) = bubblemesh_run::open_shell_warning(&report) {
         eprintln!("{line}");
     }
+    if let Some(line) = bubblemesh_run::self_crossing_warning(&report) {
+        eprintln!("{line}");
+    }
     warn_low_quality(&low);
     Ok(())
 }

@@ -573,6 +573,33 @@ fn a_solid_whose_faces_cross_is_refused_naming_the_two_faces() {
     );
 }
 
+/// The same part as a surface mesh: written (the faces are meshed as the
+/// file has them, as Gmsh does), but with a warning naming the two faces
+/// that cross and where, where before nothing said that the surface
+/// encloses no solid. A sound part of two solids that touch
+/// (assembly_nested) gets no such warning: each solid's faces are compared
+/// among themselves only.
+#[test]
+fn a_surface_mesh_whose_faces_cross_is_written_with_a_warning_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run("crossing_faces.step", 3.418609734987321, 2, dir.path());
+    let err = support::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(dir.path().join("m.msh").is_file());
+    assert!(
+        err.contains("warning: the surface mesh of volume 0")
+            && err.contains(
+                "passes through itself: face 25 (\"#3491\") crosses face 28 (\"#3750\") at (9.568"
+            ),
+        "{err}"
+    );
+    let sound = support::fixture("assembly_nested.step");
+    let o = support::mesh_in(dir.path(), &sound, "2.3", &["--dim", "2"]);
+    let err = support::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("passes through itself"), "{err}");
+}
+
 /// A plate 1 thick turned out of every axis (made with Gmsh's OpenCascade
 /// kernel: `addBox(0,0,0,100,80,1)` less `addCylinder(40,40,-1,0,0,5,15)`,
 /// turned 29° about the axis (1,2,3) through (50,40,0)). At d = 6 its

@@ -99,7 +99,7 @@ pub const SHORT_EDGE: f64 = 0.6;
 pub const SHORT_EDGE_FLOOR: f64 = 1.0 / 6.0;
 
 /// The least spacing a short edge at a tip grades from (one of the two
-/// edges of a cusp, [`cusp_ends`]), as a fraction of the requested one.
+/// edges of a cusp, `cusp_ends`), as a fraction of the requested one.
 /// The tip's triangle joins the short edge to the first node on the other
 /// edge; that node a spacing c from the tip leaves the triangle the angle
 /// (l·θ + w)/c at it (l the short edge's length, θ the chords' angle, w how

@@ -290,6 +290,49 @@ pub fn open_shell(model: &Model) -> Option<OpenShell> {
     None
 }
 
+/// A volume of the model whose surface mesh passes through itself: two of
+/// its faces' triangles with no corner in common, one's side through the
+/// other's inside. Where the CAD faces themselves cross the solid is
+/// invalid; otherwise two faces closer than their triangles' sag cross.
+/// Either way the surface mesh encloses no solid (its tetrahedra would
+/// have failed); it is written as the faces are.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SelfCrossing {
+    /// The volume, e.g. `volume 0 ("Part 1")`.
+    pub volume: String,
+    /// The two faces, e.g. `face 12 ("#1881")`.
+    pub faces: [String; 2],
+    /// A point of the crossing, model coordinates.
+    pub at: [f64; 3],
+}
+
+/// The first volume of `model` whose faces' triangles in `mesh` cross
+/// ([`SelfCrossing`], by `volume::crossing::first_crossing`);
+/// `None` when none does. Each volume's faces are compared among
+/// themselves only: separate solids that touch or overlap are not a
+/// crossing.
+pub fn self_crossing(model: &Model, mesh: &Mesh) -> Option<SelfCrossing> {
+    let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
+    for (vi, v) in model.volumes.iter().enumerate() {
+        let faces: std::collections::HashSet<u32> = v.faces.iter().copied().collect();
+        let (tris, owner): (Vec<[u32; 3]>, Vec<u32>) = mesh
+            .triangles
+            .iter()
+            .filter(|t| t.entity.dim == 2 && faces.contains(&t.entity.id))
+            .map(|t| (t.nodes, t.entity.id))
+            .unzip();
+        if let Some((i, j, p)) = crate::volume::crossing::first_crossing(&pos, &tris) {
+            let face = |k: usize| model.describe(EntityRef::new(2, owner[k]));
+            return Some(SelfCrossing {
+                volume: model.describe(EntityRef::new(3, vi as u32)),
+                faces: [face(i), face(j)],
+                at: [p.x, p.y, p.z],
+            });
+        }
+    }
+    None
+}
+
 /// Entity pairs listed in [`Touching::entities`].
 pub const TOUCHING_LISTED: usize = 10;
 

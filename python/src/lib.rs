@@ -387,6 +387,7 @@ fn mesh(
     let mut warnings = bubblemesh_run::refined_warnings(&model, &report);
     warnings.extend(bubblemesh_run::touching_warning(&report));
     warnings.extend(bubblemesh_run::open_shell_warning(&report));
+    warnings.extend(bubblemesh_run::self_crossing_warning(&report));
     let low = bubblemesh_core::quality::poor_elements(&mesh, bubblemesh_core::quality::POOR_Q);
     warnings.extend(bubblemesh_run::poor_element_warnings(&low));
     let report_json = serde_json::json!({

@@ -15,7 +15,7 @@
 //!   through `bubblemesh-viz`, staged in an [`OutputSet`] (written whole
 //!   or not at all);
 //! - the warnings a run prints ([`refined_warnings`], [`touching_warning`],
-//!   [`open_shell_warning`],
+//!   [`open_shell_warning`], [`self_crossing_warning`],
 //!   [`poor_element_warnings`]) and its progress bar ([`progress_bar`]).
 //!
 //! Every failure is an [`Error`], whose text is the command line's
@@ -733,6 +733,19 @@ pub fn open_shell_warning(report: &Report) -> Option<String> {
         "warning: the faces of {} do not close it: {} edge(s) lie on one of its faces only, the first {} near \
          ({:.6}, {:.6}, {:.6}); the surface mesh is open there as the file's shell is (tetrahedra need a closed one)",
         o.volume, o.edges, o.first, o.at[0], o.at[1], o.at[2]
+    ))
+}
+
+/// The warning that a volume's surface mesh passes through itself
+/// ([`bubblemesh_core::verify::self_crossing`]): written as the faces are,
+/// but it encloses no solid.
+pub fn self_crossing_warning(report: &Report) -> Option<String> {
+    let c = report.self_crossing.as_ref()?;
+    Some(format!(
+        "warning: the surface mesh of {} passes through itself: {} crosses {} at ({:.6}, {:.6}, {:.6}) \
+         (where the model's faces themselves cross, the solid is invalid; otherwise a finer size separates them); \
+         it is written as the faces are, but encloses no solid",
+        c.volume, c.faces[0], c.faces[1], c.at[0], c.at[1], c.at[2]
     ))
 }
 

@@ -98,6 +98,10 @@ pub struct Report {
     /// its surface mesh is open there (its tetrahedra would have failed).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub open_shell: Option<crate::verify::OpenShell>,
+    /// A volume whose surface mesh passes through itself
+    /// ([`crate::verify::self_crossing`]; surface meshes only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub self_crossing: Option<crate::verify::SelfCrossing>,
     /// Edges meshed finer than requested to keep the least number of
     /// nodes per turn, and the faces graded from them
     /// ([`crate::circle_points`]); absent where none was.
@@ -534,6 +538,10 @@ fn mesh_once(
     crate::verify::verify(model, &mesh, dim).map_err(MeshError::Check)?;
     report.touching = crate::verify::touching_parts(&mesh);
     report.open_shell = crate::verify::open_shell(model);
+    // a volume's tetrahedra already show its surface does not cross itself
+    if dim < 3 {
+        report.self_crossing = crate::verify::self_crossing(model, &mesh);
+    }
     report.nodes = mesh.nodes.len();
     report.lines = mesh.lines.len();
     report.triangles = mesh.triangles.len();

@@ -8,7 +8,8 @@
 //! than their sag, cured by a finer mesh) or CAD faces that cross each
 //! other (an invalid solid, which no size cures). Asked only then: a
 //! volume that connects has no crossing (its positive tetrahedra's
-//! boundary is the surface mesh).
+//! boundary is the surface mesh). A surface mesh (`--dim 2`) is asked
+//! too, once, for the warning of [`crate::verify::self_crossing`].
 
 use std::collections::{HashMap, HashSet};
 

@@ -43,7 +43,7 @@
 pub use crate::options::VolumeLattice;
 
 pub(crate) mod connect;
-mod crossing;
+pub(crate) mod crossing;
 mod keep;
 pub(crate) mod recover;
 pub(crate) mod shell;
