@@ -313,14 +313,18 @@ pub struct SelfCrossing {
 /// crossing.
 pub fn self_crossing(model: &Model, mesh: &Mesh) -> Option<SelfCrossing> {
     let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
+    // each face's triangles, gathered once for every volume it bounds
+    let mut of_face: HashMap<u32, Vec<[u32; 3]>> = HashMap::new();
+    for t in mesh.triangles.iter().filter(|t| t.entity.dim == 2) {
+        of_face.entry(t.entity.id).or_default().push(t.nodes);
+    }
     for (vi, v) in model.volumes.iter().enumerate() {
-        let faces: std::collections::HashSet<u32> = v.faces.iter().copied().collect();
-        let (tris, owner): (Vec<[u32; 3]>, Vec<u32>) = mesh
-            .triangles
-            .iter()
-            .filter(|t| t.entity.dim == 2 && faces.contains(&t.entity.id))
-            .map(|t| (t.nodes, t.entity.id))
-            .unzip();
+        let (mut tris, mut owner) = (Vec::new(), Vec::new());
+        for &f in &v.faces {
+            let mine = of_face.get(&f).map_or(&[][..], |t| t.as_slice());
+            tris.extend_from_slice(mine);
+            owner.resize(owner.len() + mine.len(), f);
+        }
         if let Some((i, j, p)) = crate::volume::crossing::first_crossing(&pos, &tris) {
             let face = |k: usize| model.describe(EntityRef::new(2, owner[k]));
             return Some(SelfCrossing {
