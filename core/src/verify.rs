@@ -295,7 +295,8 @@ pub fn open_shell(model: &Model) -> Option<OpenShell> {
 /// other's inside. Where the CAD faces themselves cross the solid is
 /// invalid; otherwise two faces closer than their triangles' sag cross.
 /// Either way the surface mesh encloses no solid (its tetrahedra would
-/// have failed); it is written as the faces are.
+/// have failed); it is written as the faces are. Found by the volume
+/// room's `volume::crossing::self_crossing`.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SelfCrossing {
     /// The volume, e.g. `volume 0 ("Part 1")`.
@@ -304,37 +305,6 @@ pub struct SelfCrossing {
     pub faces: [String; 2],
     /// A point of the crossing, model coordinates.
     pub at: [f64; 3],
-}
-
-/// The first volume of `model` whose faces' triangles in `mesh` cross
-/// ([`SelfCrossing`], by `volume::crossing::first_crossing`);
-/// `None` when none does. Each volume's faces are compared among
-/// themselves only: separate solids that touch or overlap are not a
-/// crossing.
-pub fn self_crossing(model: &Model, mesh: &Mesh) -> Option<SelfCrossing> {
-    let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
-    // each face's triangles, gathered once for every volume it bounds
-    let mut of_face: HashMap<u32, Vec<[u32; 3]>> = HashMap::new();
-    for t in mesh.triangles.iter().filter(|t| t.entity.dim == 2) {
-        of_face.entry(t.entity.id).or_default().push(t.nodes);
-    }
-    for (vi, v) in model.volumes.iter().enumerate() {
-        let (mut tris, mut owner) = (Vec::new(), Vec::new());
-        for &f in &v.faces {
-            let mine = of_face.get(&f).map_or(&[][..], |t| t.as_slice());
-            tris.extend_from_slice(mine);
-            owner.resize(owner.len() + mine.len(), f);
-        }
-        if let Some((i, j, p)) = crate::volume::crossing::first_crossing(&pos, &tris) {
-            let face = |k: usize| model.describe(EntityRef::new(2, owner[k]));
-            return Some(SelfCrossing {
-                volume: model.describe(EntityRef::new(3, vi as u32)),
-                faces: [face(i), face(j)],
-                at: [p.x, p.y, p.z],
-            });
-        }
-    }
-    None
 }
 
 /// Entity pairs listed in [`Touching::entities`].

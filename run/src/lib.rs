@@ -737,7 +737,7 @@ pub fn open_shell_warning(report: &Report) -> Option<String> {
 }
 
 /// The warning that a volume's surface mesh passes through itself
-/// ([`bubblemesh_core::verify::self_crossing`]): written as the faces are,
+/// ([`bubblemesh_core::verify::SelfCrossing`]): written as the faces are,
 /// but it encloses no solid.
 pub fn self_crossing_warning(report: &Report) -> Option<String> {
     let c = report.self_crossing.as_ref()?;

@@ -99,7 +99,7 @@ pub struct Report {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub open_shell: Option<crate::verify::OpenShell>,
     /// A volume whose surface mesh passes through itself
-    /// ([`crate::verify::self_crossing`]; surface meshes only).
+    /// ([`crate::verify::SelfCrossing`]; surface meshes only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub self_crossing: Option<crate::verify::SelfCrossing>,
     /// Edges meshed finer than requested to keep the least number of
@@ -540,7 +540,7 @@ fn mesh_once(
     report.open_shell = crate::verify::open_shell(model);
     // a volume's tetrahedra already show its surface does not cross itself
     if dim < 3 {
-        report.self_crossing = crate::verify::self_crossing(model, &mesh);
+        report.self_crossing = crate::volume::crossing::self_crossing(model, &mesh);
     }
     report.nodes = mesh.nodes.len();
     report.lines = mesh.lines.len();

@@ -9,12 +9,15 @@
 //! other (an invalid solid, which no size cures). Asked only then: a
 //! volume that connects has no crossing (its positive tetrahedra's
 //! boundary is the surface mesh). A surface mesh (`--dim 2`) is asked
-//! too, once, for the warning of [`crate::verify::self_crossing`].
+//! too, once, for the warning of [`self_crossing`].
 
 use std::collections::{HashMap, HashSet};
 
 use crate::geom::P3;
 use crate::measure::orient3d;
+use crate::mesh::Mesh;
+use crate::model::{EntityRef, Model};
+use crate::verify::SelfCrossing;
 
 /// The first pair (in triangle order) of `tris` (corners in `pos`) of
 /// which one's side passes through the other's inside, and a point of
@@ -111,6 +114,37 @@ fn cross(s: &[P3; 3], t: &[P3; 3]) -> Option<P3> {
         }
         Some(p + (q - p) * (op / (op - oq)))
     })
+}
+
+/// The first volume of `model` whose faces' triangles in `mesh` cross
+/// ([`SelfCrossing`], by [`first_crossing`]);
+/// `None` when none does. Each volume's faces are compared among
+/// themselves only: separate solids that touch or overlap are not a
+/// crossing.
+pub(crate) fn self_crossing(model: &Model, mesh: &Mesh) -> Option<SelfCrossing> {
+    let pos: Vec<P3> = mesh.nodes.iter().map(|n| n.pos).collect();
+    // each face's triangles, gathered once for every volume it bounds
+    let mut of_face: HashMap<u32, Vec<[u32; 3]>> = HashMap::new();
+    for t in mesh.triangles.iter().filter(|t| t.entity.dim == 2) {
+        of_face.entry(t.entity.id).or_default().push(t.nodes);
+    }
+    for (vi, v) in model.volumes.iter().enumerate() {
+        let (mut tris, mut owner) = (Vec::new(), Vec::new());
+        for &f in &v.faces {
+            let mine = of_face.get(&f).map_or(&[][..], |t| t.as_slice());
+            tris.extend_from_slice(mine);
+            owner.resize(owner.len() + mine.len(), f);
+        }
+        if let Some((i, j, p)) = first_crossing(&pos, &tris) {
+            let face = |k: usize| model.describe(EntityRef::new(2, owner[k]));
+            return Some(SelfCrossing {
+                volume: model.describe(EntityRef::new(3, vi as u32)),
+                faces: [face(i), face(j)],
+                at: [p.x, p.y, p.z],
+            });
+        }
+    }
+    None
 }
 
 #[cfg(test)]
