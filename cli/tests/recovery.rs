@@ -82,15 +82,26 @@ fn assert_closed_and_oriented(m: &bubblemesh_core::Mesh) {
     }
 }
 
+/// Realstep part `name` meshed at `size` in `dim`, checked closed and
+/// oriented, with its report; `None` when the part is not there.
+fn closed_mesh(
+    name: &str,
+    size: &str,
+    dim: &str,
+) -> Option<(bubblemesh_core::Mesh, serde_json::Value)> {
+    let (m, r) = mesh(&realstep(name)?, size, dim);
+    assert_closed_and_oriented(&m);
+    Some((m, r))
+}
+
 #[test]
 fn half_cone_apex_face_of_as_0083_meshes_at_diag_over_25() {
     // face #6366 is half a cone of 59° with its apex on its boundary, and
     // 11.6 long where d = 37.2: its (u,v) cap at the apex does not close
-    let Some(p) = realstep("as_0083_nist_ctc_01_asme1_ap242_colored.stp") else {
+    let Some((_, r)) = closed_mesh("as_0083_nist_ctc_01_asme1_ap242_colored.stp", "37.2", "2")
+    else {
         return;
     };
-    let (m, r) = mesh(&p, "37.2", "2");
-    assert_closed_and_oriented(&m);
     let faces = r["engine"]["faces"].as_array().unwrap();
     let cone = faces
         .iter()
@@ -108,11 +119,10 @@ fn boundary_of_as_0048_is_split_to_delaunay_without_refinement_rounds() {
     // triangles are missing from every tetrahedralization (the slots' walls
     // are thinner than the triangles); before, 12+ refinement rounds of
     // the whole model ran past 200 s
-    let Some(p) = realstep("as_0048_cable_tie_slot_10_v6_colored.step") else {
+    let Some((m, r)) = closed_mesh("as_0048_cable_tie_slot_10_v6_colored.step", "1.718", "3")
+    else {
         return;
     };
-    let (m, r) = mesh(&p, "1.718", "3");
-    assert_closed_and_oriented(&m);
     assert_eq!(r["engine"]["refinement_rounds"], 0, "recovered locally");
     let splits = &r["engine"]["volumes"][0]["boundary_splits"];
     assert!(splits["count"].as_u64().unwrap() > 0, "{splits}");
@@ -189,8 +199,7 @@ fn places_that_keep_failing_a_level_finer_stop_at_the_growth_bound() {
 /// `name` at spacing `size`, checked closed and oriented; `None` when the
 /// part is not there.
 fn surface_angle(name: &str, size: &str) -> Option<f64> {
-    let (m, _) = mesh(&realstep(name)?, size, "2");
-    assert_closed_and_oriented(&m);
+    let (m, _) = closed_mesh(name, size, "2")?;
     Some(support::smallest_angle(&m))
 }
 
@@ -222,11 +231,13 @@ fn a_tip_closed_by_a_short_edge_of_as_0050_grades_from_that_edge() {
     // edge sat 0.31 from the tip, its triangle had 0.29° and the
     // tetrahedron on it 0.286° (Gmsh 4.15.2 HXT: 0.315°); a short edge of
     // a cusp grades from its own length
-    let Some(p) = realstep("as_0050_extruder_drive_grabcad.stp") else {
+    let Some((m, r)) = closed_mesh(
+        "as_0050_extruder_drive_grabcad.stp",
+        "1.6120730380010702",
+        "3",
+    ) else {
         return;
     };
-    let (m, r) = mesh(&p, "1.6120730380010702", "3");
-    assert_closed_and_oriented(&m);
     let least = support::smallest_dihedral(&m);
     assert!(least > 1.0, "smallest dihedral angle {least}°");
     let graded = r["engine"]["circle_points"]["short_edges"]

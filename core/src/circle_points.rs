@@ -60,7 +60,7 @@
 //! released faces.
 
 use crate::curvature::curve_curvature;
-use crate::geom::P3;
+use crate::geom::{bounds, P3};
 use crate::model::{EntityRef, Model};
 use crate::spacing::{Spacing, SpacingQuery};
 
@@ -190,10 +190,14 @@ pub(crate) fn cusp_ends(model: &Model) -> Vec<([u32; 2], u32)> {
 /// requested spacing `inner` long at the vertex (an edge shorter than the
 /// spacing is one piece whatever it is asked for, and the requested spacing
 /// at its ends would only make its neighbours' triangles coarser there).
-fn cusps(model: &Model, inner: &dyn Spacing) -> (Vec<Vec<P3>>, Vec<bool>) {
+fn cusps(
+    model: &Model,
+    ends: &[([u32; 2], u32)],
+    inner: &dyn Spacing,
+) -> (Vec<Vec<P3>>, Vec<bool>) {
     let mut cusp_edges = vec![Vec::new(); model.edges.len()];
     let mut cusp_vertices = vec![false; model.vertices.len()];
-    for (edges, v) in cusp_ends(model) {
+    for &(edges, v) in ends {
         let point = model.vertices[v as usize].point;
         let d = inner.spacing(&SpacingQuery {
             point,
@@ -470,8 +474,8 @@ impl<'a> CirclePoints<'a> {
             ..Default::default()
         };
         // the edges of a cusp: a short one among them closes a tip
-        let tips: std::collections::HashSet<u32> =
-            cusp_ends(model).into_iter().flat_map(|(e, _)| e).collect();
+        let ends = cusp_ends(model);
+        let tips: std::collections::HashSet<u32> = ends.iter().flat_map(|&(e, _)| e).collect();
         for (ei, e) in model.edges.iter().enumerate() {
             let entity = EntityRef::new(1, ei as u32);
             // (point, requested d, cap, curvature) at parameter t
@@ -552,7 +556,7 @@ impl<'a> CirclePoints<'a> {
             }));
         }
         let face_caps = face_caps(model, inner, n, &mut samples, &mut report);
-        let (cusp_edges, cusp_vertices) = cusps(model, inner);
+        let (cusp_edges, cusp_vertices) = cusps(model, &ends, inner);
         if samples.is_empty() && face_caps.iter().all(Option::is_none) {
             return None;
         }
@@ -956,19 +960,6 @@ fn closed_face_cap(
     samples.append(&mut found);
     report.capped_faces.push(w);
     Some(fc)
-}
-
-/// The bounding box of `pts` (inverted, +∞ to −∞, when there are none).
-fn bounds<'p>(pts: impl Iterator<Item = &'p P3>) -> (P3, P3) {
-    let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-    let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-    for p in pts {
-        for i in 0..3 {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-        }
-    }
-    (lo, hi)
 }
 
 /// Distance from `p` to the box [lo, hi] (0 inside).

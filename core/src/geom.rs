@@ -57,6 +57,21 @@ pub trait Curve: Send + Sync + std::fmt::Debug {
     }
 }
 
+/// The axis-aligned bounding box of `pts`, (lowest, highest) corner
+/// (inverted, +∞ to −∞, when there are none).
+pub fn bounds<Q: std::borrow::Borrow<P3>>(pts: impl IntoIterator<Item = Q>) -> (P3, P3) {
+    let mut lo = P3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let mut hi = P3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for p in pts {
+        let p = p.borrow();
+        for i in 0..3 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    (lo, hi)
+}
+
 /// Arc length of `c` between `a` and `b` (a ≤ b or a > b) by 5-point
 /// Gauss–Legendre quadrature on 64 panels.
 pub fn length_between<C: Curve + ?Sized>(c: &C, a: f64, b: f64) -> f64 {

@@ -102,12 +102,7 @@ impl Sampled {
             .map(|k| t0 + (t1 - t0) * k as f64 / SAMPLES as f64)
             .collect();
         let pts: Vec<P3> = ts.iter().map(|&t| curve.point(t)).collect();
-        let mut lo = pts[0];
-        let mut hi = pts[0];
-        for p in &pts {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
+        let (lo, hi) = crate::geom::bounds(&pts);
         Sampled { ts, pts, lo, hi }
     }
 

@@ -53,14 +53,7 @@ struct Reach {
 impl Reach {
     /// The box of `pts` grown by `by`, and the places reaching it.
     fn new(refinement: &Refinement, pts: impl Iterator<Item = P3>, by: f64) -> Reach {
-        let (mut lo, mut hi) = (
-            P3::from([f64::INFINITY; 3]),
-            P3::from([f64::NEG_INFINITY; 3]),
-        );
-        for p in pts {
-            lo = lo.inf(&p);
-            hi = hi.sup(&p);
-        }
+        let (lo, hi) = crate::geom::bounds(pts);
         let grow = nalgebra::Vector3::repeat(by);
         let (lo, hi) = (lo - grow, hi + grow);
         Reach {

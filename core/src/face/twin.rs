@@ -322,11 +322,7 @@ impl Twins {
                 }
             }
             Offset::Normal(_) => {
-                let (mut lo, mut hi) = (first[0], first[0]);
-                for p in prisms.iter().flatten() {
-                    lo = lo.inf(p);
-                    hi = hi.sup(p);
-                }
+                let (lo, hi) = crate::geom::bounds(prisms.iter().flatten());
                 Shape::Shell { lo, hi }
             }
         };
