@@ -187,7 +187,8 @@ struct MeshArgs {
     /// Time integration of stage 2 (thesis §4.4).
     #[arg(long, value_enum, default_value = "euler")]
     integrator: IntegratorArg,
-    /// Upper bound on stage-2 time steps per face.
+    /// Upper bound on stage-2 time steps per face (a face of a surface mesh
+    /// whose size is uniform takes at most half as many, each twice as long).
     #[arg(long, default_value_t = 600)]
     max_steps: usize,
     /// At least N nodes per full turn of a curved edge: where the size is

@@ -240,10 +240,14 @@ impl<'a, C: Carrier> System<'a, C> {
         s: &RelaxSettings,
         mut progress: impl FnMut(usize, &[P3], &[f64]),
     ) -> Result<RelaxStats, MeshError> {
-        let h = dynamics::time_step(self.dim);
+        let h = s.time_step(self.dim);
         let c = dynamics::damping(self.dim);
-        let mut stats = RelaxStats::default();
-        let pop_until = (s.max_steps as f64 * s.population_until) as usize;
+        let max_steps = s.step_limit();
+        let mut stats = RelaxStats {
+            time_step: h,
+            ..Default::default()
+        };
+        let pop_until = (max_steps as f64 * s.population_until) as usize;
         let mut st = Relaxation {
             nb: self.neighbours(),
             awake: (self.n_fixed as u32..self.n() as u32).collect(),
@@ -258,8 +262,8 @@ impl<'a, C: Carrier> System<'a, C> {
         };
         // at most about ENERGY_SAMPLES samples: a sample is a sweep over
         // every pair, as dear as a step when most bubbles sleep
-        let energy_stride = s.max_steps.div_ceil(ENERGY_SAMPLES).max(1);
-        for step in 1..=s.max_steps {
+        let energy_stride = max_steps.div_ceil(ENERGY_SAMPLES).max(1);
+        for step in 1..=max_steps {
             if self.n() == self.n_fixed {
                 stats.converged = true;
                 break;

@@ -1057,15 +1057,20 @@ impl<'a> FaceJob<'a> {
         warm: bool,
     ) -> Result<RelaxStats, MeshError> {
         let opts = self.inputs.opts;
+        let uniform = self.inputs.spacing.constant_on(self.fe).is_some();
         // a uniformly spaced face that only bounds a volume stops earlier
-        // (see system::PLATEAU_BOUNDARY)
-        let settings = if self.bounds_volume && self.inputs.spacing.constant_on(self.fe).is_some() {
+        // (see system::PLATEAU_BOUNDARY); one of a surface mesh takes long
+        // steps (see RelaxSettings::long_steps)
+        let settings = if self.bounds_volume && uniform {
             system::RelaxSettings {
                 plateau: opts.relax.plateau.max(system::PLATEAU_BOUNDARY),
                 ..opts.relax
             }
         } else {
-            opts.relax
+            system::RelaxSettings {
+                long_steps: uniform && !self.bounds_volume && !warm,
+                ..opts.relax
+            }
         };
         // a warm start is near a balance: a short stage 2 (§4.8.2)
         let settings = if warm {
@@ -1079,7 +1084,7 @@ impl<'a> FaceJob<'a> {
         };
         sys.relax(
             &settings,
-            opts.relax_observer(self.fe, settings.max_steps, sys.n_fixed),
+            opts.relax_observer(self.fe, settings.step_limit(), sys.n_fixed),
         )
     }
 
