@@ -99,7 +99,7 @@ pub struct RelaxSettings {
     /// Steps [`dynamics::LONG_STEP`] times longer, and at most
     /// `max_steps / LONG_STEP` of them: the same simulated time in fewer
     /// steps. Euler only. Set for the faces of a surface mesh whose
-    /// spacing is uniform (`face::FaceMesher::stage2`), which otherwise
+    /// spacing is uniform (`face::FaceJob::stage2`), which otherwise
     /// run most of their 600 steps: on the STEP fixtures as surfaces
     /// 27.5 → 20.6 s, radius ratios within ±0.0008 of the short steps'
     /// (docs/decisions.md, session 43). Not where the spacing varies (the
