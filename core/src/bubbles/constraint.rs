@@ -15,6 +15,11 @@
 use crate::geom::{P3, V3};
 use crate::model::EntityRef;
 
+/// What a carrier hands back from a move for the next one from the same
+/// parameters ([`Carrier::advance_kept`]): the surface's partials S_u, S_v
+/// there.
+pub type Kept = (V3, V3);
+
 /// How bubbles of one entity move.
 pub trait Carrier: Sync {
     /// The entity the bubbles belong to.
@@ -24,6 +29,22 @@ pub trait Carrier: Sync {
     /// when the move would leave the entity (the bubble then stays where it
     /// is).
     fn advance(&self, pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])>;
+    /// [`Carrier::advance`], given what the move that brought the bubble
+    /// to `params` handed back (`kept`), and handing back what the next
+    /// move from the new parameters may use: a curved face's partials
+    /// S_u, S_v there, so that stage 2 evaluates the surface once per
+    /// bubble and step instead of twice. The result must be that of
+    /// `advance` whatever is kept (`kept` is only ever what this carrier
+    /// returned for the same `params`). By default nothing is kept.
+    fn advance_kept(
+        &self,
+        pos: &P3,
+        params: [f64; 2],
+        dx: &V3,
+        _kept: Option<Kept>,
+    ) -> Option<(P3, [f64; 2], Option<Kept>)> {
+        self.advance(pos, params, dx).map(|(p, uv)| (p, uv, None))
+    }
     /// Two orthonormal tangent directions at `params` (for angular gaps).
     fn frame(&self, params: [f64; 2]) -> (V3, V3);
     /// The dimension of the entity the bubbles move in (2 surface, 3

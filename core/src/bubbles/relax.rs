@@ -14,7 +14,7 @@
 
 use crate::geom::{P3, V3};
 
-use crate::bubbles::constraint::Carrier;
+use crate::bubbles::constraint::{Carrier, Kept};
 use crate::bubbles::dynamics::{self, Integrator, K0, MASS};
 use crate::bubbles::force;
 use crate::bubbles::grid::Levels;
@@ -27,8 +27,9 @@ use crate::error::MeshError;
 enum Move {
     /// Balanced and at rest: held where it is.
     Sleep,
-    /// New position, parameters and velocity.
-    To(P3, [f64; 2], V3),
+    /// New position, parameters and velocity, and what the carrier handed
+    /// back for the next move ([`Carrier::advance_kept`]).
+    To(P3, [f64; 2], V3, Option<Kept>),
     /// The carrier refused the move (it would leave the entity): stopped.
     Blocked,
 }
@@ -116,6 +117,10 @@ struct Relaxation {
     last_pop_step: usize,
     /// Potential energy at the last plateau check.
     last_energy: Option<f64>,
+    /// Per bubble, what its last move's carrier handed back, with the
+    /// parameters' bits it belongs to: used only while they are the
+    /// bubble's parameters (population control renumbers bubbles).
+    kept: Vec<Option<([u64; 2], Kept)>>,
 }
 
 impl<'a, C: Carrier> System<'a, C> {
@@ -259,6 +264,7 @@ impl<'a, C: Carrier> System<'a, C> {
             quiet_checks: 0,
             last_pop_step: 0,
             last_energy: None,
+            kept: Vec::new(),
         };
         // at most about ENERGY_SAMPLES samples: a sample is a sweep over
         // every pair, as dear as a step when most bubbles sleep
@@ -364,8 +370,12 @@ impl<'a, C: Carrier> System<'a, C> {
         // forces at the start of the step (eq. 4.4.6), then each
         // bubble's move from its own state alone: x <- x + h v,
         // v <- v + h (f - c v)/m
+        if st.kept.len() < self.n() {
+            st.kept.resize(self.n(), None);
+        }
         let this = &*self;
         let nb = &st.nb;
+        let kept = &st.kept;
         let step_one = |i: u32| -> Move {
             let i = i as usize;
             let f = this.force_on(nb, i);
@@ -374,10 +384,14 @@ impl<'a, C: Carrier> System<'a, C> {
             if f.norm() < SLEEP_FORCE * fscale && v.norm() * h < SLEEP_MOVE * this.d[i] {
                 return Move::Sleep;
             }
-            match this.carrier.advance(&this.pos[i], this.params[i], &(v * h)) {
-                Some((p, uv)) => {
+            let uv = this.params[i];
+            let held = kept[i]
+                .filter(|(key, _)| *key == [uv[0].to_bits(), uv[1].to_bits()])
+                .map(|(_, k)| k);
+            match this.carrier.advance_kept(&this.pos[i], uv, &(v * h), held) {
+                Some((p, uv, k)) => {
                     let nv = v + (f - v * c) * (h / MASS);
-                    Move::To(p, uv, this.carrier.project(uv, &nv))
+                    Move::To(p, uv, this.carrier.project(uv, &nv), k)
                 }
                 None => Move::Blocked,
             }
@@ -402,11 +416,12 @@ impl<'a, C: Carrier> System<'a, C> {
                     self.vel[i] = V3::zeros();
                     continue;
                 }
-                Move::To(p, uv, nv) => {
+                Move::To(p, uv, nv, k) => {
                     max_move = max_move.max((p - self.pos[i]).norm() / self.d[i]);
                     self.pos[i] = p;
                     self.params[i] = uv;
                     self.vel[i] = nv;
+                    st.kept[i] = k.map(|k| ([uv[0].to_bits(), uv[1].to_bits()], k));
                 }
                 Move::Blocked => self.vel[i] = V3::zeros(),
             }

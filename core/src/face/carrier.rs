@@ -5,7 +5,7 @@
 //! for why not eq. 4.5.2 as printed); near a singular point of the
 //! parametrization the moved point is projected back instead.
 
-use crate::bubbles::constraint::{parameter_step, Carrier};
+use crate::bubbles::constraint::{parameter_step, Carrier, Kept};
 use crate::face::region::Region;
 use crate::geom::{Surface, P3, V3};
 use crate::model::EntityRef;
@@ -122,16 +122,36 @@ impl Carrier for OnFace<'_> {
     fn entity(&self) -> EntityRef {
         self.entity
     }
-    fn advance(&self, _pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+    fn advance(&self, pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+        self.advance_kept(pos, params, dx, None)
+            .map(|(p, uv, _)| (p, uv))
+    }
+    /// The partials at the start are those kept from the move that ended
+    /// there (the same numbers [`Surface::tangents`] gives at those
+    /// parameters), so a move evaluates the surface once, at its end.
+    fn advance_kept(
+        &self,
+        _pos: &P3,
+        params: [f64; 2],
+        dx: &V3,
+        kept: Option<Kept>,
+    ) -> Option<(P3, [f64; 2], Option<Kept>)> {
         let uv = if let Some(pl) = &self.plane {
             let step = parameter_step(&pl.su, &pl.sv, dx)?;
             [params[0] + step[0], params[1] + step[1]]
         } else {
-            let (p, su, sv) = self.tangents(params);
+            let (su, sv) = match kept {
+                Some(k) => k,
+                None => {
+                    let (_, su, sv) = self.tangents(params);
+                    (su, sv)
+                }
+            };
             if self.degenerate(params, &su, &sv) {
                 // near a pole or an apex the first fundamental form is
                 // singular: project the moved point back onto the surface
                 // instead
+                let p = self.tangents(params).0;
                 self.surface.inverse(&(p + dx), Some(params))?
             } else {
                 let step = parameter_step(&su, &sv, dx)?;
@@ -143,12 +163,15 @@ impl Carrier for OnFace<'_> {
             return None;
         }
         // the point with its partials: the step's projection on the
-        // tangent plane asks them next (see LAST_TANGENTS)
-        let p = match self.plane {
-            Some(_) => self.surface.point(uv[0], uv[1]),
-            None => self.tangents(uv).0,
-        };
-        Some((p, uv))
+        // tangent plane asks them next (see LAST_TANGENTS), and the next
+        // move starts from them
+        match self.plane {
+            Some(_) => Some((self.surface.point(uv[0], uv[1]), uv, None)),
+            None => {
+                let (p, su, sv) = self.tangents(uv);
+                Some((p, uv, Some((su, sv))))
+            }
+        }
     }
     fn frame(&self, params: [f64; 2]) -> (V3, V3) {
         if let Some(pl) = &self.plane {
@@ -229,5 +252,118 @@ mod tests {
             assert!(sys.carrier.contains(sys.params[i]));
             assert_eq!(sys.pos[i].z, 0.0);
         }
+    }
+
+    /// z = (x² + y²)/2 over the unit square, counting its evaluations.
+    #[derive(Debug, Default)]
+    struct Bowl {
+        tangents: std::sync::atomic::AtomicUsize,
+    }
+
+    impl crate::geom::Surface for Bowl {
+        fn domain(&self) -> ([f64; 2], [f64; 2]) {
+            ([0.0, 1.0], [0.0, 1.0])
+        }
+        fn point(&self, u: f64, v: f64) -> P3 {
+            P3::new(u, v, 0.5 * (u * u + v * v))
+        }
+        fn derivs(&self, u: f64, v: f64) -> crate::geom::SurfaceDerivs {
+            crate::geom::SurfaceDerivs {
+                p: self.point(u, v),
+                su: V3::new(1.0, 0.0, u),
+                sv: V3::new(0.0, 1.0, v),
+                suu: V3::new(0.0, 0.0, 1.0),
+                suv: V3::zeros(),
+                svv: V3::new(0.0, 0.0, 1.0),
+            }
+        }
+        fn tangents(&self, u: f64, v: f64) -> (P3, V3, V3) {
+            self.tangents
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let d = self.derivs(u, v);
+            (d.p, d.su, d.sv)
+        }
+        fn inverse(&self, p: &P3, _: Option<[f64; 2]>) -> Option<[f64; 2]> {
+            Some([p.x, p.y])
+        }
+    }
+
+    /// Stage 2 on a curved face evaluates the surface once per move: the
+    /// partials at a move's start are those its last move ended with
+    /// (`Carrier::advance_kept`), the end's serve the velocity's projection
+    /// (`LAST_TANGENTS`). The bubbles end where they end when nothing is
+    /// kept, bit for bit. Without the kept partials: two per move.
+    #[test]
+    fn a_curved_face_is_evaluated_once_per_move() {
+        let s = Constant(0.05);
+        let boundary = square_system(&s).params;
+        let run = |keep: bool| {
+            let bowl = Bowl::default();
+            let carrier = OnFace::new(
+                &bowl,
+                Region::new(std::slice::from_ref(&boundary)),
+                EntityRef::new(2, 0),
+            );
+            // a carrier that drops what it is handed: every move starts
+            // from the surface
+            struct Forgetful<'a>(OnFace<'a>);
+            impl Carrier for Forgetful<'_> {
+                fn entity(&self) -> EntityRef {
+                    self.0.entity()
+                }
+                fn advance(&self, pos: &P3, params: [f64; 2], dx: &V3) -> Option<(P3, [f64; 2])> {
+                    self.0.advance(pos, params, dx)
+                }
+                fn frame(&self, params: [f64; 2]) -> (V3, V3) {
+                    self.0.frame(params)
+                }
+                fn contains(&self, params: [f64; 2]) -> bool {
+                    self.0.contains(params)
+                }
+                fn point(&self, params: [f64; 2]) -> P3 {
+                    self.0.point(params)
+                }
+                fn normal(&self, params: [f64; 2]) -> V3 {
+                    self.0.normal(params)
+                }
+                fn planar(&self) -> bool {
+                    false
+                }
+                fn tangent_length(&self, params: [f64; 2], duv: [f64; 2]) -> Option<f64> {
+                    self.0.tangent_length(params, duv)
+                }
+            }
+            let settings = RelaxSettings {
+                max_steps: 100,
+                population_until: 0.0,
+                plateau: f64::NEG_INFINITY,
+                ..Default::default()
+            };
+            let moves = std::cell::Cell::new(0usize);
+            let (pos, before) = if keep {
+                let mut sys = testing::system(carrier, &s, boundary.clone(), 2);
+                hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
+                let before = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed);
+                sys.relax(&settings, |_, _, _| moves.set(moves.get() + 1))
+                    .unwrap();
+                (sys.pos.clone(), before)
+            } else {
+                let mut sys = testing::system(Forgetful(carrier), &s, boundary.clone(), 2);
+                hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
+                let before = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed);
+                sys.relax(&settings, |_, _, _| moves.set(moves.get() + 1))
+                    .unwrap();
+                (sys.pos.clone(), before)
+            };
+            let evaluations = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed) - before;
+            (pos, evaluations)
+        };
+        let (kept, once) = run(true);
+        let (forgotten, twice) = run(false);
+        assert_eq!(kept, forgotten);
+        assert!(
+            (once as f64) < 0.6 * twice as f64,
+            "{once} evaluations with the partials kept, {twice} without"
+        );
     }
 }
