@@ -333,27 +333,30 @@ mod tests {
                     self.0.tangent_length(params, duv)
                 }
             }
-            let settings = RelaxSettings {
-                max_steps: 100,
-                population_until: 0.0,
-                plateau: f64::NEG_INFINITY,
-                ..Default::default()
-            };
-            let moves = std::cell::Cell::new(0usize);
+            // the same packing relaxed on either carrier; the count is of
+            // stage 2's evaluations alone
+            fn relaxed<C: Carrier>(
+                carrier: C,
+                boundary: &[[f64; 2]],
+                bowl: &Bowl,
+            ) -> (Vec<P3>, usize) {
+                let s = Constant(0.05);
+                let settings = RelaxSettings {
+                    max_steps: 100,
+                    population_until: 0.0,
+                    plateau: f64::NEG_INFINITY,
+                    ..Default::default()
+                };
+                let mut sys = testing::system(carrier, &s, boundary.to_vec(), 2);
+                hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
+                let before = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed);
+                sys.relax(&settings, |_, _, _| {}).unwrap();
+                (sys.pos.clone(), before)
+            }
             let (pos, before) = if keep {
-                let mut sys = testing::system(carrier, &s, boundary.clone(), 2);
-                hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
-                let before = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed);
-                sys.relax(&settings, |_, _, _| moves.set(moves.get() + 1))
-                    .unwrap();
-                (sys.pos.clone(), before)
+                relaxed(carrier, &boundary, &bowl)
             } else {
-                let mut sys = testing::system(Forgetful(carrier), &s, boundary.clone(), 2);
-                hex_fill(&mut sys, 0.05, 0.05, |_, _| false);
-                let before = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed);
-                sys.relax(&settings, |_, _, _| moves.set(moves.get() + 1))
-                    .unwrap();
-                (sys.pos.clone(), before)
+                relaxed(Forgetful(carrier), &boundary, &bowl)
             };
             let evaluations = bowl.tangents.load(std::sync::atomic::Ordering::Relaxed) - before;
             (pos, evaluations)
